@@ -1,0 +1,59 @@
+"""The one place that calls ``ti.init``.
+
+Kernels are arch-agnostic: the same code runs on ``cpu`` (default) or ``gpu``/``cuda``/
+``vulkan`` when a device exists. ``float64`` switches Taichi's default float type, used by
+the tests that compare forces against finite differences.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import taichi as ti
+
+from sandbox.errors import SandboxError
+
+log = logging.getLogger(__name__)
+
+_ARCHES = {"cpu": "cpu", "gpu": "gpu", "cuda": "cuda", "vulkan": "vulkan", "metal": "metal"}
+_state: dict = {"initialised": False, "arch": None, "float64": None}
+
+
+def init(arch: str = "cpu", *, float64: bool = False, debug: bool = False) -> None:
+    """Initialise Taichi once per process.
+
+    Calling again with the same settings is a no-op; with other settings Taichi is reset
+    (all fields and models made before become invalid).
+    """
+    if arch not in _ARCHES:
+        raise SandboxError(f"unknown arch {arch!r}: choose one of {', '.join(_ARCHES)}")
+    if _state["initialised"] and _state["arch"] == arch and _state["float64"] == float64:
+        return
+    if _state["initialised"]:
+        ti.reset()
+    ti.init(
+        arch=getattr(ti, _ARCHES[arch]),
+        default_fp=ti.f64 if float64 else ti.f32,
+        debug=debug,
+        offline_cache=True,
+        log_level=ti.WARN,
+    )
+    _state.update(initialised=True, arch=arch, float64=float64)
+    log.debug("taichi initialised on %s (float64=%s)", arch, float64)
+
+
+def ensure_init() -> None:
+    """Initialise with defaults (CPU, float32) if nobody did yet."""
+    if not _state["initialised"]:
+        init()
+
+
+def is_float64() -> bool:
+    return bool(_state["float64"])
+
+
+def float_dtype():
+    """The numpy float type matching Taichi's default float."""
+    import numpy as np
+
+    return np.float64 if _state["float64"] else np.float32
