@@ -1,0 +1,171 @@
+"""ModelBuilder: numpy pattern pieces in, a Taichi :class:`~sandbox.sim.model.Model` out.
+
+Every array here is plain numpy and in SI units. ``finalize()`` is the only place that
+allocates Taichi fields for the cloth, and it allocates only what the scene needs.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from sandbox.errors import SandboxError
+from sandbox.sim.hinges import bending_calibration, find_hinges, hinge_rest_weights
+from sandbox.sim.materials import Material, bend_rigidity_at
+from sandbox.sim.model import Model, PieceInfo
+
+MIN_REST_AREA_M2 = 1e-14
+
+
+class ModelBuilder:
+    """Collects cloth pieces as numpy arrays; ``finalize()`` makes the Taichi Model."""
+
+    def __init__(self):
+        self._pieces: list[dict] = []
+
+    def add_cloth(
+        self,
+        *,
+        name: str,
+        pattern_uv: np.ndarray,
+        triangles: np.ndarray,
+        material: Material,
+        rotation: np.ndarray | None = None,
+        translation=(0.0, 0.0, 0.0),
+        grain_rad: float = 0.0,
+        pinned: np.ndarray | None = None,
+        velocity=(0.0, 0.0, 0.0),
+        where: str | None = None,
+        meta: dict | None = None,
+    ) -> int:
+        """Add a flat pattern piece.
+
+        Args:
+            pattern_uv: (n, 2) pattern-plane coordinates [m] (also the output UVs).
+            triangles: (m, 3) vertex indices, counter-clockwise in the pattern plane.
+            material: stiffness and density.
+            rotation, translation: world placement X = R [p_x, p_y, 0] + t [m].
+            grain_rad: angle of the warp (u axis) from the pattern's x axis [rad].
+            pinned: (n,) bool, particles that never move.
+            velocity: initial velocity [m/s].
+        Returns the index of the piece.
+        """
+        where = where or name
+        uv = np.asarray(pattern_uv, dtype=np.float64)
+        tris = np.asarray(triangles, dtype=np.int64)
+        if uv.ndim != 2 or uv.shape[1] != 2:
+            raise SandboxError(f"{where}: pattern coordinates must have shape (n, 2)")
+        if tris.ndim != 2 or tris.shape[1] != 3 or len(tris) == 0:
+            raise SandboxError(f"{where}: triangles must have shape (m, 3) with m > 0")
+        if tris.min() < 0 or tris.max() >= len(uv):
+            raise SandboxError(f"{where}: a triangle refers to a vertex that does not exist")
+        if not np.all(np.isfinite(uv)):
+            raise SandboxError(f"{where}: pattern coordinates contain NaN or infinity")
+        rot = np.eye(3) if rotation is None else np.asarray(rotation, dtype=np.float64)
+        pins = np.zeros(len(uv), bool) if pinned is None else np.asarray(pinned, bool)
+        self._pieces.append(
+            dict(
+                name=name,
+                where=where,
+                uv=uv,
+                tris=tris,
+                material=material,
+                rot=rot,
+                t=np.asarray(translation, dtype=np.float64),
+                grain=float(grain_rad),
+                pins=pins,
+                vel=np.asarray(velocity, dtype=np.float64),
+                meta=meta or {},
+            )
+        )
+        return len(self._pieces) - 1
+
+    def finalize(self, *, bending: bool = True) -> Model:
+        """Allocate the Taichi Model. With ``bending=False`` no hinge is built."""
+        if not self._pieces:
+            raise SandboxError("the scene has no cloth piece")
+        xs, vs, uvs, masses, pins, tri_all, rinv, areas, stiff = ([] for _ in range(9))
+        h_idx, h_rest, h_k = [], [], []
+        pieces = []
+        offset = tri_offset = 0
+        for pc in self._pieces:
+            uv, tris, mat = pc["uv"], pc["tris"], pc["material"]
+            n = len(uv)
+            g = pc["grain"]
+            warp = np.array([math.cos(g), math.sin(g)])
+            weft = np.array([-math.sin(g), math.cos(g)])
+            rest = np.stack([uv @ warp, uv @ weft], axis=1)  # (u, v) material coordinates
+            d1 = rest[tris[:, 1]] - rest[tris[:, 0]]
+            d2 = rest[tris[:, 2]] - rest[tris[:, 0]]
+            det = d1[:, 0] * d2[:, 1] - d2[:, 0] * d1[:, 1]
+            bad = np.nonzero(np.abs(det) < 2 * MIN_REST_AREA_M2)[0]
+            if len(bad):
+                raise SandboxError(
+                    f"{pc['where']}: triangle {int(bad[0])} has zero rest area "
+                    f"({len(bad)} degenerate triangle(s))"
+                )
+            if np.any(det < 0):
+                raise SandboxError(
+                    f"{pc['where']}: triangle {int(np.nonzero(det < 0)[0][0])} is clockwise "
+                    "in the pattern plane; all triangles must be counter-clockwise"
+                )
+            dm = np.stack([np.stack([d1[:, 0], d2[:, 0]], 1), np.stack([d1[:, 1], d2[:, 1]], 1)], 1)
+            area = 0.5 * det
+            mass = np.zeros(n)
+            np.add.at(mass, tris.ravel(), np.repeat(mat.density_kg_m2 * area / 3.0, 3))
+            if np.any(mass <= 0):
+                raise SandboxError(f"{pc['where']}: a vertex belongs to no triangle")
+            world = uv @ pc["rot"][:, :2].T + pc["t"]
+            xs.append(world)
+            vs.append(np.tile(pc["vel"], (n, 1)))
+            uvs.append(uv)
+            masses.append(mass)
+            pins.append(pc["pins"])
+            tri_all.append(tris + offset)
+            rinv.append(np.linalg.inv(dm))
+            areas.append(area)
+            stiff.append(
+                np.tile([mat.stretch_u_N_m, mat.stretch_v_N_m, mat.shear_N_m], (len(tris), 1))
+            )
+            hinge_count = 0
+            if bending:
+                hinges = find_hinges(tris)
+                weight, phi = hinge_rest_weights(rest, hinges)
+                k_b = bend_rigidity_at(mat, phi) * weight * bending_calibration(rest, tris, hinges)
+                keep = k_b > 0
+                h_idx.append(hinges[keep] + offset)
+                h_rest.append(np.zeros(int(keep.sum())))
+                h_k.append(k_b[keep])
+                hinge_count = int(keep.sum())
+            pieces.append(
+                PieceInfo(
+                    name=pc["name"],
+                    material=mat,
+                    particle_start=offset,
+                    particle_count=n,
+                    tri_start=tri_offset,
+                    tri_count=len(tris),
+                    meta=dict(pc["meta"], hinge_count=hinge_count),
+                )
+            )
+            offset += n
+            tri_offset += len(tris)
+        hinge_indices = np.concatenate(h_idx) if h_idx else None
+        if hinge_indices is not None and len(hinge_indices) == 0:
+            hinge_indices = None
+        return Model(
+            rest_uv=np.concatenate(uvs),
+            positions=np.concatenate(xs),
+            velocities=np.concatenate(vs),
+            mass=np.concatenate(masses),
+            pinned=np.concatenate(pins),
+            tri_indices=np.concatenate(tri_all),
+            tri_rest_inv=np.concatenate(rinv),
+            tri_rest_area=np.concatenate(areas),
+            tri_stiffness=np.concatenate(stiff).astype(np.float64),
+            hinge_indices=hinge_indices,
+            hinge_rest_angle=None if hinge_indices is None else np.concatenate(h_rest),
+            hinge_stiffness=None if hinge_indices is None else np.concatenate(h_k),
+            pieces=pieces,
+        )

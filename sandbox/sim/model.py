@@ -1,0 +1,160 @@
+"""Model (static), State (x, v) and Control (live inputs) of a cloth simulation.
+
+The split follows Newton: a :class:`~sandbox.sim.builder.ModelBuilder` collects numpy
+arrays and ``finalize()`` allocates the Taichi fields of a :class:`Model` once. The model
+never changes during a run; :class:`State` holds what a step changes and :class:`Control`
+what a user or script may change between steps (gravity, damping) without recompiling.
+
+Only what the scene needs is allocated: no hinge fields when bending is off
+(``model.hinge_count == 0`` and ``model.hinge_indices is None``), no collision structures
+when there is nothing to collide with (``model.collider is None``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import taichi as ti
+
+
+@dataclass
+class PieceInfo:
+    """Where one cloth piece lives in the model's particle and triangle arrays."""
+
+    name: str
+    material: object
+    particle_start: int
+    particle_count: int
+    tri_start: int
+    tri_count: int
+    meta: dict = field(default_factory=dict)
+
+
+@ti.data_oriented
+class Model:
+    """Static description of the cloth, in SI units.
+
+    Fields (allocated once, sizes fixed):
+      particle_mass       (n,)    [kg] lumped mass, a third of each adjacent triangle's mass
+      particle_inv_mass   (n,)    [1/kg] 0 for pinned particles
+      tri_indices         (m,)    ivec3, counter-clockwise in the pattern plane
+      tri_rest_inv        (m,)    2x2 inverse of the rest edge matrix [[Δu1, Δu2], [Δv1, Δv2]]
+                                  (u along the warp, v along the weft) [1/m]
+      tri_rest_area       (m,)    rest area a [m^2]
+      tri_stiffness       (m,)    vec3 (E_u, E_v, E_s) [N/m]
+      hinge_indices       (h,)    ivec4 (edge x0, x1; opposite x2, x3), only with bending
+      hinge_rest_angle    (h,)    θ_b at rest [rad]
+      hinge_stiffness     (h,)    E_b of Eq. 7 [N·m]: B(φ)·l²/(A0+A1), see docs/model.md
+    Numpy copies of the inputs stay available as ``*_np`` attributes for writers and tests.
+    """
+
+    def __init__(
+        self,
+        *,
+        rest_uv: np.ndarray,
+        positions: np.ndarray,
+        velocities: np.ndarray,
+        mass: np.ndarray,
+        pinned: np.ndarray,
+        tri_indices: np.ndarray,
+        tri_rest_inv: np.ndarray,
+        tri_rest_area: np.ndarray,
+        tri_stiffness: np.ndarray,
+        hinge_indices: np.ndarray | None,
+        hinge_rest_angle: np.ndarray | None,
+        hinge_stiffness: np.ndarray | None,
+        pieces: list[PieceInfo],
+    ):
+        self.particle_count = int(len(positions))
+        self.tri_count = int(len(tri_indices))
+        self.hinge_count = 0 if hinge_indices is None else int(len(hinge_indices))
+        self.pieces = pieces
+        self.rest_uv_np = rest_uv
+        self.initial_positions_np = positions
+        self.initial_velocities_np = velocities
+        self.mass_np = mass
+        self.pinned_np = pinned
+        self.tri_indices_np = tri_indices
+        self.tri_rest_area_np = tri_rest_area
+        self.tri_stiffness_np = tri_stiffness
+        self.hinge_indices_np = hinge_indices
+        self.hinge_stiffness_np = hinge_stiffness
+        self.collider = None  # collision structures arrive with colliders (issue 4)
+
+        n, m, h = self.particle_count, self.tri_count, self.hinge_count
+        self.particle_mass = ti.field(float, shape=max(1, n))
+        self.particle_inv_mass = ti.field(float, shape=max(1, n))
+        self.tri_indices = ti.Vector.field(3, ti.i32, shape=max(1, m))
+        self.tri_rest_inv = ti.Matrix.field(2, 2, float, shape=max(1, m))
+        self.tri_rest_area = ti.field(float, shape=max(1, m))
+        self.tri_stiffness = ti.Vector.field(3, float, shape=max(1, m))
+        inv_mass = np.where(pinned, 0.0, 1.0 / np.maximum(mass, 1e-30))
+        if n:
+            self.particle_mass.from_numpy(mass.astype(np.float64))
+            self.particle_inv_mass.from_numpy(inv_mass)
+        if m:
+            self.tri_indices.from_numpy(tri_indices.astype(np.int32))
+            self.tri_rest_inv.from_numpy(tri_rest_inv)
+            self.tri_rest_area.from_numpy(tri_rest_area)
+            self.tri_stiffness.from_numpy(tri_stiffness)
+        self.hinge_indices = None
+        self.hinge_rest_angle = None
+        self.hinge_stiffness = None
+        if h:
+            self.hinge_indices = ti.Vector.field(4, ti.i32, shape=h)
+            self.hinge_rest_angle = ti.field(float, shape=h)
+            self.hinge_stiffness = ti.field(float, shape=h)
+            self.hinge_indices.from_numpy(hinge_indices.astype(np.int32))
+            self.hinge_rest_angle.from_numpy(hinge_rest_angle)
+            self.hinge_stiffness.from_numpy(hinge_stiffness)
+
+    def state(self) -> State:
+        """A new State at the model's initial positions and velocities."""
+        s = State(self.particle_count)
+        s.set(self.initial_positions_np, self.initial_velocities_np)
+        return s
+
+    def control(self, *, gravity=(0.0, -9.80665, 0.0), damping_per_s: float = 0.0) -> Control:
+        """A new Control with the given gravity [m/s^2] and damping [1/s]."""
+        c = Control()
+        c.gravity[None] = ti.Vector(list(gravity))
+        c.damping_per_s[None] = damping_per_s
+        return c
+
+
+@ti.data_oriented
+class State:
+    """Time-varying particle data: positions x [m] and velocities v [m/s], shape (n, 3)."""
+
+    def __init__(self, particle_count: int):
+        self.particle_count = particle_count
+        self.x = ti.Vector.field(3, float, shape=max(1, particle_count))
+        self.v = ti.Vector.field(3, float, shape=max(1, particle_count))
+
+    def set(self, x: np.ndarray, v: np.ndarray | None = None) -> None:
+        if self.particle_count == 0:
+            return
+        self.x.from_numpy(np.asarray(x, dtype=np.float64))
+        self.v.from_numpy(np.zeros_like(x) if v is None else np.asarray(v, dtype=np.float64))
+
+    def positions(self) -> np.ndarray:
+        """Positions as float64 numpy (n, 3) [m]."""
+        return self.x.to_numpy()[: self.particle_count].astype(np.float64)
+
+    def velocities(self) -> np.ndarray:
+        """Velocities as float64 numpy (n, 3) [m/s]."""
+        return self.v.to_numpy()[: self.particle_count].astype(np.float64)
+
+
+@ti.data_oriented
+class Control:
+    """Inputs a UI slider or script may change between steps (0-D fields, no recompile).
+
+    gravity        vec3 [m/s^2]
+    damping_per_s  mass-proportional viscous damping γ [1/s]: F_damp = −γ m v (0 = off)
+    """
+
+    def __init__(self):
+        self.gravity = ti.Vector.field(3, float, shape=())
+        self.damping_per_s = ti.field(float, shape=())

@@ -1,0 +1,171 @@
+"""Symplectic Euler solver (paper Eq. 2): the launch order of one time step.
+
+One step, as the paper's Fig. 4(a):
+  1. forces F(t_n): membrane (Eq. 6-8), bending (Eq. 7-8), gravity, damping;
+  2. v(t_n+1) = v(t_n) + dt F(t_n)/m                      (explicit, Eq. 2 first line)
+  3. contact handlers revise v(t_n+1)                        (none until colliders exist)
+  4. x(t_n+1) = x(t_n) + dt v(t_n+1)                       (implicit in v, Eq. 2 second line)
+
+Damping is mass-proportional viscous damping F_damp = −γ m v(t_n), with γ [1/s] in
+``control.damping_per_s``; γ = 0 switches it off and leaves the plain symplectic scheme.
+
+``step`` launches one parallel kernel per step. ``advance`` runs many steps in one kernel
+launch, serially, which is faster for small meshes where launch overhead dominates; both
+use the same per-element functions, so they compute the same physics.
+"""
+
+
+import taichi as ti
+
+from sandbox.sim import forces
+from sandbox.sim.model import Control, Model, State  # noqa: F401 (used in annotations)
+
+# below this many particles ``advance`` fuses steps into one serial kernel launch
+FUSED_PARTICLE_LIMIT = 1500
+
+
+@ti.data_oriented
+class SymplecticEulerSolver:
+    """Explicit cloth solver; owns its force accumulator and the NaN watch."""
+
+    def __init__(self, model: Model):
+        self.model = model
+        n = max(1, model.particle_count)
+        self.force = ti.Vector.field(3, float, shape=n)
+        self.bad_step = ti.field(ti.i32, shape=())
+        self.bad_vertex = ti.field(ti.i32, shape=())
+        self.energy = ti.field(ti.f64, shape=())
+        self.reset_watch()
+
+    # ------------------------------------------------------------------ public API
+    def step(self, state_in: State, state_out: State, control: Control, dt: float, index=0):
+        """Advance one step of ``dt`` [s] from ``state_in`` into ``state_out``.
+
+        ``state_out`` may be ``state_in`` (in-place). ``index`` is the global step number,
+        recorded if this step produces a non-finite position.
+        """
+        self._step_kernel(
+            state_in.x, state_in.v, state_out.x, state_out.v, control.gravity,
+            control.damping_per_s, dt, index,
+        )  # fmt: skip
+
+    def advance(self, state: State, control: Control, dt: float, steps: int, first_index=0):
+        """Advance ``state`` in place by ``steps`` steps of ``dt`` [s]."""
+        if self.model.particle_count <= FUSED_PARTICLE_LIMIT:
+            self._fused_kernel(
+                state.x, state.v, control.gravity, control.damping_per_s, dt, steps, first_index
+            )
+        else:
+            for k in range(steps):
+                self.step(state, state, control, dt, first_index + k)
+
+    def reset_watch(self) -> None:
+        self.bad_step[None] = 2**31 - 1
+        self.bad_vertex[None] = 2**31 - 1
+
+    def first_bad(self) -> tuple[int, int] | None:
+        """(step, vertex) of the first non-finite position since the last reset, or None."""
+        s = int(self.bad_step[None])
+        return None if s == 2**31 - 1 else (s, int(self.bad_vertex[None]))
+
+    def compute_forces(self, state: State, control: Control):
+        """Fill ``self.force`` with F(t_n) [N] for ``state`` (for tests and tools)."""
+        self._forces_kernel(state.x, state.v, control.gravity, control.damping_per_s)
+        return self.force.to_numpy()[: self.model.particle_count]
+
+    def internal_energy(self, state: State) -> float:
+        """U = Σ (U_u + U_v + U_s) + Σ U_b of Eq. 7 [J]."""
+        self.energy[None] = 0.0
+        self._energy_kernel(state.x)
+        return float(self.energy[None])
+
+    # ------------------------------------------------------------------ kernels
+    @ti.kernel
+    def _step_kernel(
+        self, x_in: ti.template(), v_in: ti.template(), x_out: ti.template(),
+        v_out: ti.template(), gravity: ti.template(), damping: ti.template(), dt: float,
+        index: ti.i32,
+    ):  # fmt: skip
+        self._accumulate_forces(x_in, v_in, gravity, damping)
+        self._kick_drift(x_in, v_in, x_out, v_out, gravity, damping, dt, index)
+
+    @ti.kernel
+    def _fused_kernel(
+        self, x: ti.template(), v: ti.template(), gravity: ti.template(),
+        damping: ti.template(), dt: float, steps: ti.i32, first_index: ti.i32,
+    ):  # fmt: skip
+        ti.loop_config(serialize=True)
+        for k in range(steps):
+            self._accumulate_forces(x, v, gravity, damping)
+            self._kick_drift(x, v, x, v, gravity, damping, dt, first_index + k)
+
+    @ti.kernel
+    def _forces_kernel(
+        self, x: ti.template(), v: ti.template(), gravity: ti.template(), damping: ti.template()
+    ):
+        self._accumulate_forces(x, v, gravity, damping)
+
+    @ti.kernel
+    def _energy_kernel(self, x: ti.template()):
+        m = self.model
+        for t in range(m.tri_count):
+            i = m.tri_indices[t]
+            f_u, f_v = forces.deformation_columns(x[i[0]], x[i[1]], x[i[2]], m.tri_rest_inv[t])
+            k = m.tri_stiffness[t]
+            e = forces.eq7_membrane_energy(f_u, f_v, m.tri_rest_area[t], k[0], k[1], k[2])
+            self.energy[None] += ti.cast(e, ti.f64)
+        if ti.static(m.hinge_count > 0):
+            for h in range(m.hinge_count):
+                j = m.hinge_indices[h]
+                th = forces.dihedral_angle(x[j[0]], x[j[1]], x[j[2]], x[j[3]])
+                d = th - m.hinge_rest_angle[h]
+                self.energy[None] += ti.cast(0.5 * m.hinge_stiffness[h] * d * d, ti.f64)
+
+    # ------------------------------------------------------------------ per-step pieces
+    @ti.func
+    def _accumulate_forces(self, x, v, gravity, damping):
+        m = self.model
+        for i in range(m.particle_count):
+            self.force[i] = ti.Vector([0.0, 0.0, 0.0])
+        # Eq. 6-8: membrane forces of each triangle, scattered to its three vertices
+        for t in range(m.tri_count):
+            i = m.tri_indices[t]
+            r = m.tri_rest_inv[t]
+            f_u, f_v = forces.deformation_columns(x[i[0]], x[i[1]], x[i[2]], r)
+            k = m.tri_stiffness[t]
+            g_u, g_v = forces.eq8_membrane_gradient(f_u, f_v, m.tri_rest_area[t], k[0], k[1], k[2])
+            # F_u = c_u0 x0 + c_u1 x1 + c_u2 x2 with c_u1 = r00, c_u2 = r10, c_u0 = -(r00 + r10)
+            f1 = -(r[0, 0] * g_u + r[0, 1] * g_v)
+            f2 = -(r[1, 0] * g_u + r[1, 1] * g_v)
+            self.force[i[0]] += -(f1 + f2)
+            self.force[i[1]] += f1
+            self.force[i[2]] += f2
+        # Eq. 7-8: bending U_b = E_b/2 (θ_b − θ_0)^2, F = −E_b (θ_b − θ_0) ∂θ_b/∂x
+        if ti.static(m.hinge_count > 0):
+            for h in range(m.hinge_count):
+                j = m.hinge_indices[h]
+                x0, x1, x2, x3 = x[j[0]], x[j[1]], x[j[2]], x[j[3]]
+                th = forces.dihedral_angle(x0, x1, x2, x3)
+                g0, g1, g2, g3 = forces.dihedral_angle_gradient(x0, x1, x2, x3)
+                s = -m.hinge_stiffness[h] * (th - m.hinge_rest_angle[h])
+                self.force[j[0]] += s * g0
+                self.force[j[1]] += s * g1
+                self.force[j[2]] += s * g2
+                self.force[j[3]] += s * g3
+
+    @ti.func
+    def _kick_drift(self, x_in, v_in, x_out, v_out, gravity, damping, dt, index):
+        m = self.model
+        for i in range(m.particle_count):
+            w = m.particle_inv_mass[i]
+            v_new = ti.Vector([0.0, 0.0, 0.0])
+            if w > 0.0:
+                # Eq. 2: v(t+dt) = v(t) + dt F(t)/m, F = F_int + m g − γ m v(t)
+                v_new = v_in[i] + dt * (self.force[i] * w + gravity[None] - damping[None] * v_in[i])
+            # Eq. 2: x(t+dt) = x(t) + dt v(t+dt)
+            x_new = x_in[i] + dt * v_new
+            if not (ti.abs(x_new).max() < 1e30):  # catches NaN and infinity
+                ti.atomic_min(self.bad_step[None], index)
+                ti.atomic_min(self.bad_vertex[None], i)
+            v_out[i] = v_new
+            x_out[i] = x_new

@@ -1,0 +1,12 @@
+"""Shared test set-up: one Taichi runtime per test session, in float64 by default."""
+
+import pytest
+
+from sandbox import runtime
+
+
+@pytest.fixture(scope="session", autouse=True)
+def taichi_f64():
+    """Tests compare against finite differences and references: run Taichi in float64."""
+    runtime.init("cpu", float64=True)
+    yield
