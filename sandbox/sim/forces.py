@@ -29,9 +29,7 @@ def eq6_strain(d1, d2, du1, dv1, du2, dv2):
     det = du1 * dv2 - du2 * dv1
     s_u = ti.sqrt(k11 * dv2**2 + k22 * dv1**2 - 2.0 * k12 * dv1 * dv2) / det
     s_v = ti.sqrt(k11 * du2**2 + k22 * du1**2 - 2.0 * k12 * du1 * du2) / det
-    arg = (k12 * (du1 * dv2 + du2 * dv1) - k11 * du2 * dv2 - k22 * du1 * dv1) / (
-        s_u * s_v * det**2
-    )
+    arg = (k12 * (du1 * dv2 + du2 * dv1) - k11 * du2 * dv2 - k22 * du1 * dv1) / (s_u * s_v * det**2)
     theta_s = 0.5 * ti.asin(ti.math.clamp(arg, -1.0, 1.0))
     return s_u, s_v, theta_s
 
@@ -109,15 +107,16 @@ def dihedral_angle(x0, x1, x2, x3):
 
 @ti.func
 def dihedral_angle_gradient(x0, x1, x2, x3):
-    """∂θ_b/∂x_i for the four hinge vertices (Bridson, Marino, Fedkiw 2003, §4).
+    """θ_b and ∂θ_b/∂x_i for the four hinge vertices (Bridson, Marino, Fedkiw 2003, §4).
 
-    Returns ``(g0, g1, g2, g3)``; they sum to zero (translation invariance) and have zero
-    total moment (rotation invariance).
+    Returns ``(θ_b, g0, g1, g2, g3)``; the g sum to zero (translation invariance) and have
+    zero total moment (rotation invariance). θ_b is the same as :func:`dihedral_angle`.
     """
     e = x1 - x0
     le = ti.max(e.norm(), SHEAR_EPS)
     n1 = e.cross(x2 - x0)
     n2 = (x3 - x0).cross(e)
+    theta = ti.atan2(n1.cross(n2).dot(e) / le, n1.dot(n2))
     n1sq = ti.max(n1.norm_sqr(), SHEAR_EPS * SHEAR_EPS)
     n2sq = ti.max(n2.norm_sqr(), SHEAR_EPS * SHEAR_EPS)
     g2 = -le / n1sq * n1
@@ -126,4 +125,4 @@ def dihedral_angle_gradient(x0, x1, x2, x3):
     t3 = (x3 - x0).dot(e) / le
     g1 = t2 / n1sq * n1 + t3 / n2sq * n2
     g0 = -(g1 + g2 + g3)
-    return g0, g1, g2, g3
+    return theta, g0, g1, g2, g3

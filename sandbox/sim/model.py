@@ -17,6 +17,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import taichi as ti
 
+from sandbox import runtime
+
 
 @dataclass
 class PieceInfo:
@@ -46,6 +48,9 @@ class Model:
       hinge_indices       (h,)    ivec4 (edge x0, x1; opposite x2, x3), only with bending
       hinge_rest_angle    (h,)    θ_b at rest [rad]
       hinge_stiffness     (h,)    E_b of Eq. 7 [N·m]: B(φ)·l²/(A0+A1), see docs/model.md
+      vert_tri_start/slot         CSR incidence: the corners 3t+c of the triangles at each
+                                  particle, so forces are gathered without atomics
+      vert_hinge_start/slot       the same for hinge slots 4h+k
     Numpy copies of the inputs stay available as ``*_np`` attributes for writers and tests.
     """
 
@@ -91,14 +96,16 @@ class Model:
         self.tri_stiffness = ti.Vector.field(3, float, shape=max(1, m))
         inv_mass = np.where(pinned, 0.0, 1.0 / np.maximum(mass, 1e-30))
         if n:
-            self.particle_mass.from_numpy(mass.astype(np.float64))
-            self.particle_inv_mass.from_numpy(inv_mass)
+            self.particle_mass.from_numpy(_f(mass))
+            self.particle_inv_mass.from_numpy(_f(inv_mass))
         if m:
             self.tri_indices.from_numpy(tri_indices.astype(np.int32))
-            self.tri_rest_inv.from_numpy(tri_rest_inv)
-            self.tri_rest_area.from_numpy(tri_rest_area)
-            self.tri_stiffness.from_numpy(tri_stiffness)
+            self.tri_rest_inv.from_numpy(_f(tri_rest_inv))
+            self.tri_rest_area.from_numpy(_f(tri_rest_area))
+            self.tri_stiffness.from_numpy(_f(tri_stiffness))
+        self.vert_tri_start, self.vert_tri_slot = _incidence(tri_indices, n)
         self.hinge_indices = None
+        self.vert_hinge_start = self.vert_hinge_slot = None
         self.hinge_rest_angle = None
         self.hinge_stiffness = None
         if h:
@@ -106,8 +113,9 @@ class Model:
             self.hinge_rest_angle = ti.field(float, shape=h)
             self.hinge_stiffness = ti.field(float, shape=h)
             self.hinge_indices.from_numpy(hinge_indices.astype(np.int32))
-            self.hinge_rest_angle.from_numpy(hinge_rest_angle)
-            self.hinge_stiffness.from_numpy(hinge_stiffness)
+            self.hinge_rest_angle.from_numpy(_f(hinge_rest_angle))
+            self.hinge_stiffness.from_numpy(_f(hinge_stiffness))
+            self.vert_hinge_start, self.vert_hinge_slot = _incidence(hinge_indices, n)
 
     def state(self) -> State:
         """A new State at the model's initial positions and velocities."""
@@ -123,6 +131,26 @@ class Model:
         return c
 
 
+def _f(a) -> np.ndarray:
+    """``a`` as numpy in Taichi's default float type (no precision warnings on copy)."""
+    return np.asarray(a, dtype=runtime.float_dtype())
+
+
+def _incidence(elements: np.ndarray, n: int):
+    """CSR lists of element slots per particle: for particle i the slots
+    ``slot[start[i]:start[i+1]]`` are ``k·e + c`` for element e whose corner c is i."""
+    flat = np.asarray(elements, dtype=np.int64).ravel()
+    order = np.argsort(flat, kind="stable")
+    counts = np.bincount(flat, minlength=n)
+    start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int32)
+    start_f = ti.field(ti.i32, shape=n + 1)
+    slot_f = ti.field(ti.i32, shape=max(1, len(flat)))
+    start_f.from_numpy(start)
+    if len(flat):
+        slot_f.from_numpy(order.astype(np.int32))
+    return start_f, slot_f
+
+
 @ti.data_oriented
 class State:
     """Time-varying particle data: positions x [m] and velocities v [m/s], shape (n, 3)."""
@@ -135,8 +163,8 @@ class State:
     def set(self, x: np.ndarray, v: np.ndarray | None = None) -> None:
         if self.particle_count == 0:
             return
-        self.x.from_numpy(np.asarray(x, dtype=np.float64))
-        self.v.from_numpy(np.zeros_like(x) if v is None else np.asarray(v, dtype=np.float64))
+        self.x.from_numpy(_f(x))
+        self.v.from_numpy(_f(np.zeros_like(x) if v is None else v))
 
     def positions(self) -> np.ndarray:
         """Positions as float64 numpy (n, 3) [m]."""

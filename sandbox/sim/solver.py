@@ -9,29 +9,34 @@ One step, as the paper's Fig. 4(a):
 Damping is mass-proportional viscous damping F_damp = −γ m v(t_n), with γ [1/s] in
 ``control.damping_per_s``; γ = 0 switches it off and leaves the plain symplectic scheme.
 
-``step`` launches one parallel kernel per step. ``advance`` runs many steps in one kernel
+Forces are computed per element into per-corner slots, then gathered per particle through
+the model's incidence lists: no atomic adds, so the parallel loops scale across cores.
+``step`` runs one step per kernel launch, in parallel. ``advance`` runs many steps in one
 launch, serially, which is faster for small meshes where launch overhead dominates; both
-use the same per-element functions, so they compute the same physics.
+use the same per-element functions.
 """
-
 
 import taichi as ti
 
 from sandbox.sim import forces
 from sandbox.sim.model import Control, Model, State  # noqa: F401 (used in annotations)
 
-# below this many particles ``advance`` fuses steps into one serial kernel launch
-FUSED_PARTICLE_LIMIT = 1500
+# up to this many particles ``advance`` fuses steps into one serial kernel launch
+FUSED_PARTICLE_LIMIT = 1200
+NO_STEP = 2**31 - 1
 
 
 @ti.data_oriented
 class SymplecticEulerSolver:
-    """Explicit cloth solver; owns its force accumulator and the NaN watch."""
+    """Explicit cloth solver; owns its per-element force slots and the NaN watch."""
 
     def __init__(self, model: Model):
         self.model = model
-        n = max(1, model.particle_count)
-        self.force = ti.Vector.field(3, float, shape=n)
+        self.force = ti.Vector.field(3, float, shape=max(1, model.particle_count))
+        self.tri_force = ti.Vector.field(3, float, shape=max(1, 3 * model.tri_count))
+        self.hinge_force = None
+        if model.hinge_count:
+            self.hinge_force = ti.Vector.field(3, float, shape=4 * model.hinge_count)
         self.bad_step = ti.field(ti.i32, shape=())
         self.bad_vertex = ti.field(ti.i32, shape=())
         self.energy = ti.field(ti.f64, shape=())
@@ -41,7 +46,7 @@ class SymplecticEulerSolver:
     def step(self, state_in: State, state_out: State, control: Control, dt: float, index=0):
         """Advance one step of ``dt`` [s] from ``state_in`` into ``state_out``.
 
-        ``state_out`` may be ``state_in`` (in-place). ``index`` is the global step number,
+        ``state_out`` may be ``state_in`` (in place). ``index`` is the global step number,
         recorded if this step produces a non-finite position.
         """
         self._step_kernel(
@@ -60,16 +65,16 @@ class SymplecticEulerSolver:
                 self.step(state, state, control, dt, first_index + k)
 
     def reset_watch(self) -> None:
-        self.bad_step[None] = 2**31 - 1
-        self.bad_vertex[None] = 2**31 - 1
+        self.bad_step[None] = NO_STEP
+        self.bad_vertex[None] = NO_STEP
 
     def first_bad(self) -> tuple[int, int] | None:
         """(step, vertex) of the first non-finite position since the last reset, or None."""
         s = int(self.bad_step[None])
-        return None if s == 2**31 - 1 else (s, int(self.bad_vertex[None]))
+        return None if s == NO_STEP else (s, int(self.bad_vertex[None]))
 
     def compute_forces(self, state: State, control: Control):
-        """Fill ``self.force`` with F(t_n) [N] for ``state`` (for tests and tools)."""
+        """F(t_n) [N] per particle, numpy (n, 3): internal + gravity + damping forces."""
         self._forces_kernel(state.x, state.v, control.gravity, control.damping_per_s)
         return self.force.to_numpy()[: self.model.particle_count]
 
@@ -86,7 +91,7 @@ class SymplecticEulerSolver:
         v_out: ti.template(), gravity: ti.template(), damping: ti.template(), dt: float,
         index: ti.i32,
     ):  # fmt: skip
-        self._accumulate_forces(x_in, v_in, gravity, damping)
+        self._element_forces(x_in)
         self._kick_drift(x_in, v_in, x_out, v_out, gravity, damping, dt, index)
 
     @ti.kernel
@@ -96,14 +101,18 @@ class SymplecticEulerSolver:
     ):  # fmt: skip
         ti.loop_config(serialize=True)
         for k in range(steps):
-            self._accumulate_forces(x, v, gravity, damping)
+            self._element_forces(x)
             self._kick_drift(x, v, x, v, gravity, damping, dt, first_index + k)
 
     @ti.kernel
     def _forces_kernel(
         self, x: ti.template(), v: ti.template(), gravity: ti.template(), damping: ti.template()
     ):
-        self._accumulate_forces(x, v, gravity, damping)
+        self._element_forces(x)
+        for i in range(self.model.particle_count):
+            m = self.model.particle_mass[i]
+            f = self._gathered_force(i) + m * gravity[None] - damping[None] * m * v[i]
+            self.force[i] = f
 
     @ti.kernel
     def _energy_kernel(self, x: ti.template()):
@@ -123,11 +132,9 @@ class SymplecticEulerSolver:
 
     # ------------------------------------------------------------------ per-step pieces
     @ti.func
-    def _accumulate_forces(self, x, v, gravity, damping):
+    def _element_forces(self, x):
         m = self.model
-        for i in range(m.particle_count):
-            self.force[i] = ti.Vector([0.0, 0.0, 0.0])
-        # Eq. 6-8: membrane forces of each triangle, scattered to its three vertices
+        # Eq. 6-8: membrane forces of each triangle, into its three corner slots
         for t in range(m.tri_count):
             i = m.tri_indices[t]
             r = m.tri_rest_inv[t]
@@ -137,21 +144,32 @@ class SymplecticEulerSolver:
             # F_u = c_u0 x0 + c_u1 x1 + c_u2 x2 with c_u1 = r00, c_u2 = r10, c_u0 = -(r00 + r10)
             f1 = -(r[0, 0] * g_u + r[0, 1] * g_v)
             f2 = -(r[1, 0] * g_u + r[1, 1] * g_v)
-            self.force[i[0]] += -(f1 + f2)
-            self.force[i[1]] += f1
-            self.force[i[2]] += f2
+            self.tri_force[3 * t] = -(f1 + f2)
+            self.tri_force[3 * t + 1] = f1
+            self.tri_force[3 * t + 2] = f2
         # Eq. 7-8: bending U_b = E_b/2 (θ_b − θ_0)^2, F = −E_b (θ_b − θ_0) ∂θ_b/∂x
         if ti.static(m.hinge_count > 0):
             for h in range(m.hinge_count):
                 j = m.hinge_indices[h]
-                x0, x1, x2, x3 = x[j[0]], x[j[1]], x[j[2]], x[j[3]]
-                th = forces.dihedral_angle(x0, x1, x2, x3)
-                g0, g1, g2, g3 = forces.dihedral_angle_gradient(x0, x1, x2, x3)
+                th, g0, g1, g2, g3 = forces.dihedral_angle_gradient(
+                    x[j[0]], x[j[1]], x[j[2]], x[j[3]]
+                )
                 s = -m.hinge_stiffness[h] * (th - m.hinge_rest_angle[h])
-                self.force[j[0]] += s * g0
-                self.force[j[1]] += s * g1
-                self.force[j[2]] += s * g2
-                self.force[j[3]] += s * g3
+                self.hinge_force[4 * h] = s * g0
+                self.hinge_force[4 * h + 1] = s * g1
+                self.hinge_force[4 * h + 2] = s * g2
+                self.hinge_force[4 * h + 3] = s * g3
+
+    @ti.func
+    def _gathered_force(self, i):
+        m = self.model
+        f = ti.Vector([0.0, 0.0, 0.0])
+        for k in range(m.vert_tri_start[i], m.vert_tri_start[i + 1]):
+            f += self.tri_force[m.vert_tri_slot[k]]
+        if ti.static(m.hinge_count > 0):
+            for k in range(m.vert_hinge_start[i], m.vert_hinge_start[i + 1]):
+                f += self.hinge_force[m.vert_hinge_slot[k]]
+        return f
 
     @ti.func
     def _kick_drift(self, x_in, v_in, x_out, v_out, gravity, damping, dt, index):
@@ -161,7 +179,8 @@ class SymplecticEulerSolver:
             v_new = ti.Vector([0.0, 0.0, 0.0])
             if w > 0.0:
                 # Eq. 2: v(t+dt) = v(t) + dt F(t)/m, F = F_int + m g − γ m v(t)
-                v_new = v_in[i] + dt * (self.force[i] * w + gravity[None] - damping[None] * v_in[i])
+                f = self._gathered_force(i)
+                v_new = v_in[i] + dt * (f * w + gravity[None] - damping[None] * v_in[i])
             # Eq. 2: x(t+dt) = x(t) + dt v(t+dt)
             x_new = x_in[i] + dt * v_new
             if not (ti.abs(x_new).max() < 1e30):  # catches NaN and infinity

@@ -1,0 +1,176 @@
+"""Build a runnable scene from a checked :class:`SceneSpec`.
+
+mesh each piece (numpy) -> resolve pins -> ModelBuilder -> Model, State, Control, Solver.
+All input checks happen before ``finalize()``, so bad input never reaches a kernel.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from sandbox import runtime
+from sandbox.errors import SandboxError
+from sandbox.pattern.mesh2d import mesh_grid, mesh_polygon
+from sandbox.scene.spec import ClothSpec, PinSpec, SceneSpec
+from sandbox.sim.builder import ModelBuilder
+from sandbox.sim.model import Control, Model, State
+from sandbox.sim.solver import SymplecticEulerSolver
+
+DT_SAFETY = 0.5
+"""Fraction of the estimated explicit stability limit used when ``dt_s = "auto"``."""
+
+
+@dataclass
+class Scene:
+    """Everything one run needs. ``dt_s`` is the step actually used [s]."""
+
+    spec: SceneSpec
+    model: Model
+    state: State
+    control: Control
+    solver: SymplecticEulerSolver
+    dt_s: float
+    steps_per_frame: int
+    dt_limit_s: float
+
+
+def mesh_cloth(c: ClothSpec) -> tuple[np.ndarray, np.ndarray]:
+    """Pattern-plane mesh of one piece: points (n, 2) [m] and triangles (m, 3)."""
+    if c.mesher == "grid":
+        (x0, y0), _, (x1, y1), _ = c.outline_m
+        pts, tris = mesh_grid(x1 - x0, y1 - y0, c.edge_length_m)
+        return pts + np.array([x0, y0]), tris
+    return mesh_polygon(np.array(c.outline_m), c.edge_length_m, where=c.where)
+
+
+def resolve_pins(c: ClothSpec, uv: np.ndarray) -> np.ndarray:
+    """Boolean mask (n,) of pinned vertices of one piece."""
+    mask = np.zeros(len(uv), bool)
+    lo, hi = uv.min(axis=0), uv.max(axis=0)
+    tol = 1e-6 * float(np.max(hi - lo))
+    for p in c.pins:
+        mask |= _pin_mask(p, uv, lo, hi, tol)
+    return mask
+
+
+def _pin_mask(p: PinSpec, uv, lo, hi, tol) -> np.ndarray:
+    n = len(uv)
+    m = np.zeros(n, bool)
+    if p.vertices is not None:
+        bad = [i for i in p.vertices if not 0 <= i < n]
+        if bad:
+            raise SandboxError(
+                f"{p.where}.vertices: index {bad[0]} is out of range (the piece has {n} vertices,"
+                f" 0..{n - 1})"
+            )
+        m[p.vertices] = True
+    elif p.region_m is not None:
+        (u0, v0), (u1, v1) = p.region_m
+        m = (uv[:, 0] >= u0 - tol) & (uv[:, 0] <= u1 + tol)
+        m &= (uv[:, 1] >= v0 - tol) & (uv[:, 1] <= v1 + tol)
+        if not m.any():
+            raise SandboxError(f"{p.where}.region_m: no vertex lies inside {p.region_m}")
+    elif p.side is not None:
+        axis, value = {"top": (1, hi[1]), "bottom": (1, lo[1]), "left": (0, lo[0]),
+                       "right": (0, hi[0])}[p.side]  # fmt: skip
+        m = np.abs(uv[:, axis] - value) <= tol
+    else:
+        corners = {"top": [(lo[0], hi[1]), (hi[0], hi[1])],
+                   "bottom": [(lo[0], lo[1]), (hi[0], lo[1])],
+                   "left": [(lo[0], lo[1]), (lo[0], hi[1])],
+                   "right": [(hi[0], lo[1]), (hi[0], hi[1])]}  # fmt: skip
+        corners["all"] = corners["top"] + corners["bottom"]
+        for q in corners[p.corners]:
+            m[int(np.argmin(np.linalg.norm(uv - np.array(q), axis=1)))] = True
+    return m
+
+
+def rotation_matrix(deg) -> np.ndarray:
+    """R = Rz Ry Rx from angles in degrees about X, then Y, then Z (world axes)."""
+    ax, ay, az = (math.radians(a) for a in deg)
+    cx, sx, cy, sy, cz, sz = (math.cos(ax), math.sin(ax), math.cos(ay), math.sin(ay),
+                              math.cos(az), math.sin(az))  # fmt: skip
+    rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+    return rz @ ry @ rx
+
+
+def stable_dt_estimate(model: Model) -> float:
+    """Estimated explicit stability limit [s] of symplectic Euler for this model.
+
+    Membrane: a vertex of mass m_i tied by stiffness k ≈ Σ_t E_t a_t |∇N|² has ω² = k/m;
+    bending: ω² ≈ Σ_h E_b |∇θ_b|² / m. Symplectic Euler is stable for dt·ω_max < 2
+    (validation.md §6e); the estimate bounds ω_max by the per-vertex sums (Gershgorin).
+    """
+    n = model.particle_count
+    tris = model.tri_indices_np
+    rinv = model.tri_rest_inv.to_numpy()[: model.tri_count]
+    # |∇N_i|² summed over the triangle's vertices, from the rest-shape coefficients
+    cu = np.stack([-(rinv[:, 0, 0] + rinv[:, 1, 0]), rinv[:, 0, 0], rinv[:, 1, 0]], 1)
+    cv = np.stack([-(rinv[:, 0, 1] + rinv[:, 1, 1]), rinv[:, 0, 1], rinv[:, 1, 1]], 1)
+    e = model.tri_stiffness_np
+    a = model.tri_rest_area_np
+    kmax = np.maximum(np.maximum(e[:, 0], e[:, 1]), 2 * e[:, 2])[:, None]
+    k_tri = (
+        a[:, None]
+        * kmax
+        * (np.abs(cu) + np.abs(cv))
+        * (np.abs(cu).sum(1, keepdims=True) + np.abs(cv).sum(1, keepdims=True))
+    )
+    k = np.zeros(n)
+    np.add.at(k, tris.ravel(), k_tri.ravel())
+    if model.hinge_count:
+        h = model.hinge_indices_np
+        uv = model.rest_uv_np
+        alt = np.minimum(_altitude(uv, h[:, 0], h[:, 1], h[:, 2]),
+                         _altitude(uv, h[:, 0], h[:, 1], h[:, 3]))  # fmt: skip
+        # |∂θ/∂x| ~ 1/altitude for the opposite vertices; Gershgorin over the 4 vertices
+        kb = model.hinge_stiffness_np * (2.0 / alt) * (4.0 / alt)
+        np.add.at(k, h.ravel(), np.repeat(kb, 4))
+    omega = np.sqrt(k / model.mass_np)
+    w = float(omega[~model.pinned_np].max()) if (~model.pinned_np).any() else 0.0
+    return 2.0 / w if w > 0 else math.inf
+
+
+def _altitude(uv, i0, i1, i2):
+    e = uv[i1] - uv[i0]
+    d = uv[i2] - uv[i0]
+    return np.abs(e[:, 0] * d[:, 1] - e[:, 1] * d[:, 0]) / np.linalg.norm(e, axis=1)
+
+
+def build_scene(spec: SceneSpec) -> Scene:
+    """Mesh, check and allocate a scene. Initialises Taichi on the CPU if nobody did."""
+    builder = ModelBuilder()
+    meshed = []
+    for c in spec.cloths:
+        uv, tris = mesh_cloth(c)
+        pins = resolve_pins(c, uv)
+        meshed.append((c, uv, tris, pins))
+    runtime.ensure_init()
+    for c, uv, tris, pins in meshed:
+        builder.add_cloth(
+            name=c.name,
+            pattern_uv=uv,
+            triangles=tris,
+            material=c.material,
+            rotation=rotation_matrix(c.rotation_deg),
+            translation=c.origin_m,
+            grain_rad=math.radians(c.grain_deg),
+            pinned=pins,
+            velocity=c.velocity_m_s,
+            where=c.where,
+        )
+    model = builder.finalize(bending=spec.simulation.bending)
+    sim = spec.simulation
+    frame = 1.0 / sim.frame_rate_hz
+    limit = stable_dt_estimate(model)
+    dt = sim.dt_s if sim.dt_s is not None else min(frame, DT_SAFETY * limit)
+    steps = max(1, math.ceil(frame / dt - 1e-9))
+    dt = frame / steps  # a whole number of steps per output frame
+    control = model.control(gravity=sim.gravity_m_s2, damping_per_s=sim.damping_per_s)
+    return Scene(spec, model, model.state(), control, SymplecticEulerSolver(model), dt, steps,
+                 limit)  # fmt: skip

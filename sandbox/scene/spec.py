@@ -1,0 +1,286 @@
+"""Scene files: what a scene has, checked before anything is built.
+
+A scene is a TOML file (``docs/scene_format.md`` documents every key). Parsing checks
+every key and value and raises :class:`SandboxError` naming the file, the entry and the
+problem, so bad input stops before any Taichi kernel runs.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from sandbox.errors import SandboxError
+from sandbox.sim.materials import Material, material_from_spec
+
+INTEGRATORS = ("symplectic_euler",)
+SHAPES = ("rectangle", "polygon")
+MESHERS = ("irregular", "grid")
+SIDES = ("top", "bottom", "left", "right")
+
+
+@dataclass
+class PinSpec:
+    """One pin entry: exactly one of vertex indices, a pattern-plane box, a side, corners."""
+
+    vertices: list[int] | None = None
+    region_m: tuple[tuple[float, float], tuple[float, float]] | None = None
+    side: str | None = None
+    corners: str | None = None
+    where: str = ""
+
+
+@dataclass
+class ClothSpec:
+    """A flat cloth piece: outline in the pattern plane [m], mesh, material, placement."""
+
+    name: str
+    outline_m: list[tuple[float, float]]
+    edge_length_m: float
+    material: Material
+    mesher: str = "irregular"
+    grain_deg: float = 0.0
+    origin_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rotation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    velocity_m_s: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    pins: list[PinSpec] = field(default_factory=list)
+    where: str = ""
+
+
+@dataclass
+class SimulationSpec:
+    integrator: str = "symplectic_euler"
+    dt_s: float | None = None  # None: automatic from the stability estimate
+    frame_rate_hz: float = 30.0
+    gravity_m_s2: tuple[float, float, float] = (0.0, -9.80665, 0.0)
+    damping_per_s: float = 0.5
+    bending: bool = True
+
+
+@dataclass
+class StopSpec:
+    """Paper §2.2 stop rule, measured over one output frame of simulated time."""
+
+    max_displacement_m: float = 1.5e-3
+    mean_displacement_m: float = 1.0e-4
+    frames: int = 1
+    min_time_s: float = 0.0
+    time_limit_s: float = 10.0
+    wall_limit_s: float = 3600.0
+
+
+@dataclass
+class SceneSpec:
+    name: str
+    description: str = ""
+    simulation: SimulationSpec = field(default_factory=SimulationSpec)
+    stop: StopSpec = field(default_factory=StopSpec)
+    cloths: list[ClothSpec] = field(default_factory=list)
+    source: str = "<scene>"
+
+
+# ---------------------------------------------------------------------------- loading
+def load_scene(path: str | Path) -> SceneSpec:
+    """Read and check a TOML scene file."""
+    path = Path(path)
+    if not path.is_file():
+        raise SandboxError(f"{path}: no such scene file")
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise SandboxError(f"{path}: not valid TOML ({exc})") from None
+    except UnicodeDecodeError:
+        raise SandboxError(f"{path}: not a text file") from None
+    return scene_from_dict(data, source=str(path))
+
+
+def scene_from_dict(data: dict, *, source: str = "<scene>") -> SceneSpec:
+    """Check a scene given as nested dicts (as read from TOML)."""
+    r = _Reader(source)
+    r.keys(data, "", {"scene", "simulation", "stop", "cloth"})
+    head = data.get("scene", {})
+    r.keys(head, "[scene]", {"name", "description"})
+    spec = SceneSpec(
+        name=r.string(head, "[scene]", "name", "scene"),
+        description=r.string(head, "[scene]", "description", ""),
+        source=source,
+    )
+    spec.simulation = _simulation(r, data.get("simulation", {}))
+    spec.stop = _stop(r, data.get("stop", {}))
+    cloths = data.get("cloth", [])
+    if not isinstance(cloths, list) or not cloths:
+        raise SandboxError(f"{source}: the scene needs at least one [[cloth]] table")
+    spec.cloths = [_cloth(r, c, f"cloth[{i}]") for i, c in enumerate(cloths)]
+    names = [c.name for c in spec.cloths]
+    dup = {n for n in names if names.count(n) > 1}
+    if dup:
+        raise SandboxError(f"{source}: cloth names must be unique, repeated: {sorted(dup)}")
+    return spec
+
+
+def _simulation(r: _Reader, t: dict) -> SimulationSpec:
+    w = "[simulation]"
+    r.keys(t, w, {"integrator", "dt_s", "frame_rate_hz", "gravity_m_s2", "damping_per_s",
+                  "bending"})  # fmt: skip
+    s = SimulationSpec()
+    s.integrator = r.choice(t, w, "integrator", INTEGRATORS, s.integrator)
+    dt = t.get("dt_s", "auto")
+    s.dt_s = None if dt == "auto" else r.number(t, w, "dt_s", positive=True)
+    s.frame_rate_hz = r.number(t, w, "frame_rate_hz", s.frame_rate_hz, positive=True)
+    s.gravity_m_s2 = r.vector(t, w, "gravity_m_s2", 3, s.gravity_m_s2)
+    s.damping_per_s = r.number(t, w, "damping_per_s", s.damping_per_s, minimum=0.0)
+    s.bending = r.boolean(t, w, "bending", s.bending)
+    if s.dt_s is not None and s.dt_s > 1.0 / s.frame_rate_hz:
+        raise SandboxError(f"{r.source}: {w} dt_s ({s.dt_s}) is longer than one frame")
+    return s
+
+
+def _stop(r: _Reader, t: dict) -> StopSpec:
+    w = "[stop]"
+    s = StopSpec()
+    r.keys(t, w, set(s.__dataclass_fields__))
+    s.max_displacement_m = r.number(t, w, "max_displacement_m", s.max_displacement_m, True)
+    s.mean_displacement_m = r.number(t, w, "mean_displacement_m", s.mean_displacement_m, True)
+    s.frames = int(r.number(t, w, "frames", s.frames, positive=True, integer=True))
+    s.min_time_s = r.number(t, w, "min_time_s", s.min_time_s, minimum=0.0)
+    s.time_limit_s = r.number(t, w, "time_limit_s", s.time_limit_s, positive=True)
+    s.wall_limit_s = r.number(t, w, "wall_limit_s", s.wall_limit_s, positive=True)
+    return s
+
+
+def _cloth(r: _Reader, t: dict, w: str) -> ClothSpec:
+    if not isinstance(t, dict):
+        raise SandboxError(f"{r.source}: {w} must be a table")
+    r.keys(t, w, {"name", "shape", "size_m", "outline_m", "edge_length_m", "mesher", "material",
+                  "grain_deg", "origin_m", "rotation_deg", "velocity_m_s", "pins"})  # fmt: skip
+    name = r.string(t, w, "name", w)
+    shape = r.choice(t, w, "shape", SHAPES, "rectangle")
+    if shape == "rectangle":
+        if "outline_m" in t:
+            raise SandboxError(f"{r.source}: {w}: 'outline_m' is for shape = \"polygon\"")
+        sx, sy = r.vector(t, w, "size_m", 2, None, positive=True)
+        outline = [(0.0, 0.0), (sx, 0.0), (sx, sy), (0.0, sy)]
+    else:
+        if "size_m" in t:
+            raise SandboxError(f"{r.source}: {w}: 'size_m' is for shape = \"rectangle\"")
+        pts = t.get("outline_m")
+        if not isinstance(pts, list) or len(pts) < 3:
+            raise SandboxError(f"{r.source}: {w}.outline_m: a list of at least 3 [u, v] points")
+        outline = [tuple(r.vector({"p": p}, f"{w}.outline_m[{i}]", "p", 2, None))
+                   for i, p in enumerate(pts)]  # fmt: skip
+    mesher = r.choice(t, w, "mesher", MESHERS, "irregular")
+    if mesher == "grid" and shape != "rectangle":
+        raise SandboxError(f'{r.source}: {w}: mesher = "grid" needs shape = "rectangle"')
+    if "material" not in t:
+        raise SandboxError(f"{r.source}: {w}: 'material' is missing (a preset name or a table)")
+    c = ClothSpec(
+        name=name,
+        outline_m=outline,
+        edge_length_m=r.number(t, w, "edge_length_m", None, positive=True),
+        material=material_from_spec(t["material"], where=f"{r.source}: {w}.material"),
+        mesher=mesher,
+        grain_deg=r.number(t, w, "grain_deg", 0.0),
+        origin_m=r.vector(t, w, "origin_m", 3, (0.0, 0.0, 0.0)),
+        rotation_deg=r.vector(t, w, "rotation_deg", 3, (0.0, 0.0, 0.0)),
+        velocity_m_s=r.vector(t, w, "velocity_m_s", 3, (0.0, 0.0, 0.0)),
+        where=f"{r.source}: {w}",
+    )
+    pins = t.get("pins", [])
+    if not isinstance(pins, list):
+        raise SandboxError(f"{r.source}: {w}.pins must be a list of tables")
+    c.pins = [_pin(r, p, f"{w}.pins[{i}]") for i, p in enumerate(pins)]
+    return c
+
+
+def _pin(r: _Reader, t, w: str) -> PinSpec:
+    if not isinstance(t, dict):
+        raise SandboxError(f'{r.source}: {w} must be a table such as {{ side = "top" }}')
+    r.keys(t, w, {"vertices", "region_m", "side", "corners"})
+    if len(t) != 1:
+        raise SandboxError(
+            f"{r.source}: {w}: give exactly one of vertices, region_m, side, corners"
+        )
+    p = PinSpec(where=f"{r.source}: {w}")
+    if "vertices" in t:
+        v = t["vertices"]
+        if not isinstance(v, list) or not all(isinstance(i, int) and not isinstance(i, bool)
+                                              for i in v):  # fmt: skip
+            raise SandboxError(f"{r.source}: {w}.vertices must be a list of integers")
+        p.vertices = list(v)
+    elif "region_m" in t:
+        box = t["region_m"]
+        if not isinstance(box, list) or len(box) != 2:
+            raise SandboxError(f"{r.source}: {w}.region_m must be [[u_min, v_min], [u_max, v_max]]")
+        lo = r.vector({"p": box[0]}, f"{w}.region_m[0]", "p", 2, None)
+        hi = r.vector({"p": box[1]}, f"{w}.region_m[1]", "p", 2, None)
+        p.region_m = (lo, hi)
+    elif "side" in t:
+        p.side = r.choice(t, w, "side", SIDES, None)
+    else:
+        p.corners = r.choice(t, w, "corners", SIDES + ("all",), None)
+    return p
+
+
+class _Reader:
+    """Typed access to TOML tables with errors that name the file, the entry and the key."""
+
+    def __init__(self, source: str):
+        self.source = source
+
+    def fail(self, where: str, key: str, msg: str):
+        loc = f"{where} {key}" if where else key
+        raise SandboxError(f"{self.source}: {loc.strip()}: {msg}")
+
+    def keys(self, t, where: str, allowed: set[str]):
+        if not isinstance(t, dict):
+            raise SandboxError(f"{self.source}: {where or 'top level'} must be a table")
+        unknown = sorted(set(t) - allowed)
+        if unknown:
+            raise SandboxError(
+                f"{self.source}: {where or 'top level'}: unknown key "
+                f"{', '.join(repr(k) for k in unknown)} (allowed: {', '.join(sorted(allowed))})"
+            )
+
+    def string(self, t, where, key, default):
+        v = t.get(key, default)
+        if not isinstance(v, str):
+            self.fail(where, key, f"must be a string, got {v!r}")
+        return v
+
+    def boolean(self, t, where, key, default):
+        v = t.get(key, default)
+        if not isinstance(v, bool):
+            self.fail(where, key, f"must be true or false, got {v!r}")
+        return v
+
+    def choice(self, t, where, key, options, default):
+        v = t.get(key, default)
+        if v not in options:
+            self.fail(where, key, f"must be one of {', '.join(options)}, got {v!r}")
+        return v
+
+    def number(self, t, where, key, default=None, positive=False, minimum=None, integer=False):
+        if key not in t and default is None:
+            self.fail(where, key, "is missing")
+        v = t.get(key, default)
+        if isinstance(v, bool) or not isinstance(v, int | float):
+            self.fail(where, key, f"must be a number, got {v!r}")
+        if not math.isfinite(v):
+            self.fail(where, key, f"must be finite, got {v!r}")
+        if positive and v <= 0:
+            self.fail(where, key, f"must be > 0, got {v!r}")
+        if minimum is not None and v < minimum:
+            self.fail(where, key, f"must be >= {minimum}, got {v!r}")
+        if integer and v != int(v):
+            self.fail(where, key, f"must be a whole number, got {v!r}")
+        return float(v)
+
+    def vector(self, t, where, key, n, default, positive=False):
+        if key not in t and default is None:
+            self.fail(where, key, "is missing")
+        v = t.get(key, default)
+        if not isinstance(v, list | tuple) or len(v) != n:
+            self.fail(where, key, f"must be a list of {n} numbers, got {v!r}")
+        return tuple(self.number({key: x}, where, key, positive=positive) for x in v)
