@@ -40,7 +40,12 @@ def resample_outline(outline: np.ndarray, edge_length: float) -> np.ndarray:
 
 
 def mesh_polygon(
-    outline, edge_length: float, *, where: str = "polygon", min_angle_deg: float = MIN_ANGLE_DEG
+    outline,
+    edge_length: float,
+    *,
+    where: str = "polygon",
+    min_angle_deg: float = MIN_ANGLE_DEG,
+    inner_segments=(),
 ) -> tuple[np.ndarray, np.ndarray]:
     """Irregular quality mesh of a simple polygon.
 
@@ -48,6 +53,8 @@ def mesh_polygon(
         outline: polygon corners (k, 2) [m], either orientation, not repeated at the end.
         edge_length: target edge length [m].
         where: names the input in error messages.
+        inner_segments: straight segments ``((u0, v0), (u1, v1))`` inside the polygon that
+            mesh edges must follow (for example a clamp line), resampled like the boundary.
 
     Returns:
         ``(points (n, 2) float64 [m], triangles (m, 3) int64)``, triangles counter-clockwise.
@@ -66,7 +73,26 @@ def mesh_polygon(
         outline = outline[::-1]
     boundary = resample_outline(outline, edge_length)
     k = len(boundary)
-    segments = np.stack([np.arange(k), (np.arange(k) + 1) % k], axis=1)
+    segments = [np.stack([np.arange(k), (np.arange(k) + 1) % k], axis=1)]
+    points = [boundary]
+    tol = 1e-9 * float(np.ptp(boundary, axis=0).max())
+    for seg in inner_segments:
+        pts = _resample_segment(np.asarray(seg[0], float), np.asarray(seg[1], float), edge_length)
+        all_pts = np.vstack(points)
+        idx = []
+        for q in pts:  # reuse an existing point (e.g. a boundary corner): no duplicates
+            d = np.linalg.norm(all_pts - q, axis=1)
+            j = int(np.argmin(d))
+            if d[j] <= tol:
+                idx.append(j)
+            else:
+                idx.append(len(all_pts))
+                all_pts = np.vstack([all_pts, q])
+                points.append(q[None, :])
+        idx = np.asarray(idx)
+        segments.append(np.stack([idx[:-1], idx[1:]], axis=1))
+    boundary = np.vstack(points)
+    segments = np.vstack(segments)
     max_area = math.sqrt(3.0) / 4.0 * edge_length**2 * 1.4
     try:
         out = tr.triangulate(
@@ -82,10 +108,14 @@ def mesh_polygon(
     return pts, orient_ccw(pts, tris)
 
 
-def mesh_grid(width: float, height: float, edge_length: float) -> tuple[np.ndarray, np.ndarray]:
-    """Structured mesh of the rectangle [0, width] x [0, height] with alternating diagonals.
+def mesh_grid(
+    width: float, height: float, edge_length: float, *, alternate: bool = True
+) -> tuple[np.ndarray, np.ndarray]:
+    """Structured mesh of the rectangle [0, width] x [0, height].
 
-    Used by validation runs to separate mesh irregularity from other errors.
+    Each square is split by a diagonal, alternating in a checkerboard (``alternate``) or
+    all the same way. Used by validation runs to separate mesh irregularity from other
+    errors.
     """
     nx = max(1, round(width / edge_length))
     ny = max(1, round(height / edge_length))
@@ -97,11 +127,16 @@ def mesh_grid(width: float, height: float, edge_length: float) -> tuple[np.ndarr
         for i in range(nx):
             a, b = j * (nx + 1) + i, j * (nx + 1) + i + 1
             c, d = a + nx + 1, b + nx + 1
-            if (i + j) % 2 == 0:
+            if not alternate or (i + j) % 2 == 0:
                 tris += [(a, b, d), (a, d, c)]
             else:
                 tris += [(a, b, c), (b, d, c)]
     return pts, np.asarray(tris, dtype=np.int64)
+
+
+def _resample_segment(a, b, edge_length):
+    n = max(1, math.ceil(np.linalg.norm(b - a) / edge_length - 1e-9))
+    return a + (b - a) * (np.arange(n + 1)[:, None] / n)
 
 
 def orient_ccw(points: np.ndarray, tris: np.ndarray) -> np.ndarray:

@@ -19,7 +19,7 @@ from sandbox.sim.builder import ModelBuilder
 from sandbox.sim.model import Control, Model, State
 from sandbox.sim.solver import SymplecticEulerSolver
 
-DT_SAFETY = 0.5
+DT_SAFETY = 0.9
 """Fraction of the estimated explicit stability limit used when ``dt_s = "auto"``."""
 
 
@@ -43,7 +43,9 @@ def mesh_cloth(c: ClothSpec) -> tuple[np.ndarray, np.ndarray]:
         (x0, y0), _, (x1, y1), _ = c.outline_m
         pts, tris = mesh_grid(x1 - x0, y1 - y0, c.edge_length_m)
         return pts + np.array([x0, y0]), tris
-    return mesh_polygon(np.array(c.outline_m), c.edge_length_m, where=c.where)
+    return mesh_polygon(
+        np.array(c.outline_m), c.edge_length_m, where=c.where, inner_segments=c.mesh_lines_m
+    )
 
 
 def resolve_pins(c: ClothSpec, uv: np.ndarray) -> np.ndarray:

@@ -46,6 +46,9 @@ class ClothSpec:
     rotation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
     velocity_m_s: tuple[float, float, float] = (0.0, 0.0, 0.0)
     pins: list[PinSpec] = field(default_factory=list)
+    mesh_lines_m: list[tuple[tuple[float, float], tuple[float, float]]] = field(
+        default_factory=list
+    )
     where: str = ""
 
 
@@ -154,7 +157,8 @@ def _cloth(r: _Reader, t: dict, w: str) -> ClothSpec:
     if not isinstance(t, dict):
         raise SandboxError(f"{r.source}: {w} must be a table")
     r.keys(t, w, {"name", "shape", "size_m", "outline_m", "edge_length_m", "mesher", "material",
-                  "grain_deg", "origin_m", "rotation_deg", "velocity_m_s", "pins"})  # fmt: skip
+                  "grain_deg", "origin_m", "rotation_deg", "velocity_m_s", "pins",
+                  "mesh_lines_m"})  # fmt: skip
     name = r.string(t, w, "name", w)
     shape = r.choice(t, w, "shape", SHAPES, "rectangle")
     if shape == "rectangle":
@@ -191,6 +195,17 @@ def _cloth(r: _Reader, t: dict, w: str) -> ClothSpec:
     if not isinstance(pins, list):
         raise SandboxError(f"{r.source}: {w}.pins must be a list of tables")
     c.pins = [_pin(r, p, f"{w}.pins[{i}]") for i, p in enumerate(pins)]
+    lines = t.get("mesh_lines_m", [])
+    if not isinstance(lines, list):
+        raise SandboxError(f"{r.source}: {w}.mesh_lines_m must be a list of [[u0, v0], [u1, v1]]")
+    for i, seg in enumerate(lines):
+        if not isinstance(seg, list) or len(seg) != 2:
+            raise SandboxError(f"{r.source}: {w}.mesh_lines_m[{i}] must be [[u0, v0], [u1, v1]]")
+        a = r.vector({"p": seg[0]}, f"{w}.mesh_lines_m[{i}][0]", "p", 2, None)
+        b = r.vector({"p": seg[1]}, f"{w}.mesh_lines_m[{i}][1]", "p", 2, None)
+        c.mesh_lines_m.append((a, b))
+    if c.mesh_lines_m and c.mesher == "grid":
+        raise SandboxError(f'{r.source}: {w}: mesh_lines_m needs mesher = "irregular"')
     return c
 
 

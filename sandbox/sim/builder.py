@@ -6,6 +6,7 @@ allocates Taichi fields for the cloth, and it allocates only what the scene need
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -129,10 +130,18 @@ class ModelBuilder:
                 np.tile([mat.stretch_u_N_m, mat.stretch_v_N_m, mat.shear_N_m], (len(tris), 1))
             )
             hinge_count = 0
+            c = None
             if bending:
                 hinges = find_hinges(tris)
                 weight, phi = hinge_rest_weights(rest, hinges)
-                k_b = bend_rigidity_at(mat, phi) * weight * bending_calibration(rest, tris, hinges)
+                c = bending_calibration(rest, tris, hinges)
+                calibrated = dataclasses.replace(
+                    mat,
+                    bend_warp_Nm=mat.bend_warp_Nm * c["warp"],
+                    bend_weft_Nm=mat.bend_weft_Nm * c["weft"],
+                    bend_bias_Nm=mat.bend_bias_Nm * c["bias"],
+                )
+                k_b = bend_rigidity_at(calibrated, phi) * weight
                 keep = k_b > 0
                 h_idx.append(hinges[keep] + offset)
                 h_rest.append(np.zeros(int(keep.sum())))
@@ -146,7 +155,7 @@ class ModelBuilder:
                     particle_count=n,
                     tri_start=tri_offset,
                     tri_count=len(tris),
-                    meta=dict(pc["meta"], hinge_count=hinge_count),
+                    meta=dict(pc["meta"], hinge_count=hinge_count, bending_calibration=c),
                 )
             )
             offset += n

@@ -1,0 +1,65 @@
+"""Write what a run produced: the final mesh (OBJ and PLY with UVs), a PNG and metrics.
+
+Every file goes through :mod:`sandbox.atomic`, so an interrupted or failed run leaves no
+half-written file. A diverged run writes nothing (the caller never gets here).
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+import numpy as np
+
+from sandbox.atomic import write_json
+from sandbox.scene.build import Scene
+from sandbox.scene.run import RunResult
+
+log = logging.getLogger(__name__)
+
+CLOTH_COLOR = (0.32, 0.45, 0.75)
+
+
+def write_outputs(scene: Scene, result: RunResult, out_dir, *, render: bool = True) -> dict:
+    """Write ``mesh.obj``, ``mesh.ply``, ``render.png`` and ``metrics.json`` into ``out_dir``.
+
+    Returns a dict of the written paths by kind. UVs are the pattern-plane coordinates [m].
+    """
+    from sandbox.render.meshio import write_mesh
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    model = scene.model
+    x = result.positions
+    tris = model.tri_indices_np
+    paths = {
+        "mesh_obj": write_mesh(out / "mesh.obj", x, tris, uvs=model.rest_uv_np),
+        "mesh_ply": write_mesh(out / "mesh.ply", x, tris, uvs=model.rest_uv_np),
+    }
+    if render:
+        paths["image"] = render_state(out / "render.png", x, tris)
+    metrics = dict(result.metrics)
+    metrics["outputs"] = {k: p.name for k, p in paths.items()}
+    metrics["bounding_box_m"] = [x.min(axis=0).tolist(), x.max(axis=0).tolist()]
+    paths["metrics"] = write_json(out / "metrics.json", _jsonable(metrics))
+    return paths
+
+
+def render_state(path, x: np.ndarray, tris: np.ndarray, *, views=("front", "side")) -> Path:
+    """Off-screen PNG of the cloth (front and side views)."""
+    from sandbox.render.offscreen import render_png
+
+    mesh = {"vertices": x, "triangles": tris, "color": CLOTH_COLOR}
+    return render_png(path, [mesh], views=views, width=480, height=480)
+
+
+def _jsonable(obj):
+    if isinstance(obj, dict):
+        return {k: _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, float) and not np.isfinite(obj):
+        return None
+    return obj
