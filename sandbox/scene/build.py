@@ -165,6 +165,7 @@ def build_scene(spec: SceneSpec) -> Scene:
             pinned=pins,
             velocity=c.velocity_m_s,
             where=c.where,
+            meta={"mesher": c.mesher},
         )
     model = builder.finalize(bending=spec.simulation.bending)
     sim = spec.simulation

@@ -6,7 +6,6 @@ allocates Taichi fields for the cloth, and it allocates only what the scene need
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
@@ -135,13 +134,7 @@ class ModelBuilder:
                 hinges = find_hinges(tris)
                 weight, phi = hinge_rest_weights(rest, hinges)
                 c = bending_calibration(rest, tris, hinges)
-                calibrated = dataclasses.replace(
-                    mat,
-                    bend_warp_Nm=mat.bend_warp_Nm * c["warp"],
-                    bend_weft_Nm=mat.bend_weft_Nm * c["weft"],
-                    bend_bias_Nm=mat.bend_bias_Nm * c["bias"],
-                )
-                k_b = bend_rigidity_at(calibrated, phi) * weight
+                k_b = c * bend_rigidity_at(mat, phi) * weight
                 keep = k_b > 0
                 h_idx.append(hinges[keep] + offset)
                 h_rest.append(np.zeros(int(keep.sum())))
