@@ -169,8 +169,10 @@ def main(args) -> int:
               f" rho_A = {DENSITY_KG_M2} kg/m^2; symplectic Euler, "
               f"{'float64' if runtime.is_float64() else 'float32'}, {platform.machine()} "
               f"({platform.processor() or 'cpu'})")  # fmt: skip
-        print(f"{'lambda':>6} {'h [mm]':>7} {'dt [us]':>8} {'verts':>6} {'steps':>8} "  # noqa: E501
-              f"{'chord':>7} {'exact':>7} {'tip err %L':>10} {'wall [s]':>9} converged")  # fmt: skip
+        head = ("lambda", "h [mm]", "dt [us]", "verts", "steps", "chord", "exact", "tip err %L",
+                "wall [s]")  # fmt: skip
+        widths = (6, 7, 8, 6, 8, 7, 7, 10, 9)
+        print(" ".join(f"{h:>{w}}" for h, w in zip(head, widths, strict=True)) + " converged")
 
     def show(r: CantileverRun):
         if args.json:
