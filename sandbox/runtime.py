@@ -48,6 +48,11 @@ def ensure_init() -> None:
         init()
 
 
+def arch() -> str:
+    """The arch Taichi was initialised with (``"cpu"`` before initialisation)."""
+    return _state["arch"] or "cpu"
+
+
 def is_float64() -> bool:
     return bool(_state["float64"])
 

@@ -362,7 +362,7 @@ def test_render_png_needs_png_suffix(tmp_path):
 
 def test_backend_choice_and_environment(monkeypatch):
     monkeypatch.delenv(ENV_BACKEND, raising=False)
-    assert resolve_backend() == "numpy"
+    assert resolve_backend() == "open3d"  # the project renderer; numpy is the fallback
     assert resolve_backend("open3d") == "open3d"
     monkeypatch.setenv(ENV_BACKEND, "open3d")
     assert resolve_backend("auto") == "open3d"

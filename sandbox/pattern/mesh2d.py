@@ -105,7 +105,33 @@ def mesh_polygon(
         raise SandboxError(f"{where}: meshing produced no triangles (self-intersecting outline?)")
     pts = np.asarray(out["vertices"], dtype=np.float64)
     tris = np.asarray(out["triangles"], dtype=np.int64)
-    return pts, orient_ccw(pts, tris)
+    return spatial_order(pts, orient_ccw(pts, tris))
+
+
+def spatial_order(points: np.ndarray, tris: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Renumber vertices along a Z-order (Morton) curve and sort triangles to match.
+
+    Neighbouring vertices then sit near each other in memory, which makes the solver's
+    gather loops several times faster than Triangle's own numbering. Geometry unchanged.
+    """
+    lo = points.min(axis=0)
+    span = max(float(np.ptp(points, axis=0).max()), 1e-30)
+    q = np.clip(((points - lo) / span * 65535.0).astype(np.int64), 0, 65535)
+    key = _spread_bits(q[:, 0]) | (_spread_bits(q[:, 1]) << 1)
+    order = np.argsort(key, kind="stable")
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    tris = rank[tris]
+    tris = tris[np.argsort(tris.min(axis=1), kind="stable")]
+    return points[order], tris
+
+
+def _spread_bits(v: np.ndarray) -> np.ndarray:
+    v = v & 0xFFFF
+    v = (v | (v << 8)) & 0x00FF00FF
+    v = (v | (v << 4)) & 0x0F0F0F0F
+    v = (v | (v << 2)) & 0x33333333
+    return (v | (v << 1)) & 0x55555555
 
 
 def mesh_grid(

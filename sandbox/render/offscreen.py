@@ -48,6 +48,7 @@ with vertex colours. See docs/outputs.md for the numbers.
 from __future__ import annotations
 
 import atexit
+import logging
 import os
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
@@ -537,7 +538,9 @@ def _render_open3d(
 def resolve_backend(backend: str = "auto") -> str:
     """The backend that ``backend`` stands for: ``"numpy"`` or ``"open3d"``.
 
-    ``"auto"`` takes ``$SANDBOX_RENDER_BACKEND`` when it is set, else ``"numpy"``.
+    ``"auto"`` takes ``$SANDBOX_RENDER_BACKEND`` when it is set, else ``"open3d"`` (the
+    project's offline renderer); :func:`render_image` falls back to ``"numpy"`` when Open3D
+    cannot open a GL context.
     """
     if backend not in BACKENDS:
         raise SandboxError(f"unknown render backend {backend!r}: choose one of {BACKENDS}")
@@ -548,7 +551,7 @@ def resolve_backend(backend: str = "auto") -> str:
                 f"${ENV_BACKEND}={env!r} is not a render backend: choose one of {BACKENDS}"
             )
         backend = env or "auto"
-    return "numpy" if backend == "auto" else backend
+    return "open3d" if backend == "auto" else backend
 
 
 def _render(
@@ -579,12 +582,23 @@ def _render(
         [m.vertices[np.unique(m.triangles)] for m in mesh_list if len(m.triangles)]
         + [ln.points for ln in line_list if len(ln.points)]
     )
-    draw = _render_open3d if chosen == "open3d" else _render_numpy
-    tiles = []
-    for view in views:
-        cam = _frame(view, points, int(width), int(height))
-        tiles.append(draw(mesh_list, line_list, cam, bg, float(line_width)))
-    return np.concatenate(tiles, axis=1)
+    automatic = backend == "auto" and not os.environ.get(ENV_BACKEND, "").strip()
+
+    def draw_all(draw):
+        tiles = []
+        for view in views:
+            cam = _frame(view, points, int(width), int(height))
+            tiles.append(draw(mesh_list, line_list, cam, bg, float(line_width)))
+        return np.concatenate(tiles, axis=1)
+
+    if chosen == "open3d":
+        try:
+            return draw_all(_render_open3d)
+        except SandboxError as exc:
+            if not automatic:
+                raise
+            logging.getLogger(__name__).info("%s; using the numpy renderer", exc)
+    return draw_all(_render_numpy)
 
 
 def render_image(

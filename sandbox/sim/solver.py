@@ -18,11 +18,15 @@ use the same per-element functions.
 
 import taichi as ti
 
+from sandbox import runtime
 from sandbox.sim import forces
 from sandbox.sim.model import Control, Model, State  # noqa: F401 (used in annotations)
 
-# up to this many particles ``advance`` fuses steps into one serial kernel launch
-FUSED_PARTICLE_LIMIT = 1200
+# On the CPU, up to this many particles ``advance`` fuses steps into one serial kernel
+# launch (measured on 2 cores: serial 4.2-4.8 M vertex-steps/s up to 18k vertices, the
+# parallel path 2.7-3.5 M; at 70k the parallel path wins, 4.8 against 2.7; see
+# benchmarks/bench_step.py). On a GPU every step is a parallel launch.
+FUSED_PARTICLE_LIMIT = 30000
 NO_STEP = 2**31 - 1
 
 
@@ -56,7 +60,7 @@ class SymplecticEulerSolver:
 
     def advance(self, state: State, control: Control, dt: float, steps: int, first_index=0):
         """Advance ``state`` in place by ``steps`` steps of ``dt`` [s]."""
-        if self.model.particle_count <= FUSED_PARTICLE_LIMIT:
+        if runtime.arch() == "cpu" and self.model.particle_count <= FUSED_PARTICLE_LIMIT:
             self._fused_kernel(
                 state.x, state.v, control.gravity, control.damping_per_s, dt, steps, first_index
             )
