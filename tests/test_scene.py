@@ -101,7 +101,7 @@ def test_builder_allocates_only_what_the_scene_needs():
     flat = build_scene(sheet_spec(simulation={"bending": False}))
     assert flat.model.hinge_count == 0
     assert flat.model.hinge_indices is None and flat.solver.hinge_force is None
-    assert flat.model.collider is None  # nothing to collide with: no collision structures
+    assert flat.model.colliders == []  # nothing to collide with: no collision structures
     bent = build_scene(sheet_spec())
     assert bent.model.hinge_count > 0 and bent.model.hinge_indices is not None
 

@@ -50,6 +50,7 @@ from __future__ import annotations
 import atexit
 import logging
 import os
+import tempfile
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -436,6 +437,10 @@ def _gl_visualizer(width: int, height: int):
         import open3d as o3d
     except ImportError as exc:
         raise SandboxError(f"open3d render backend unavailable: {exc}") from None
+    if not os.environ.get("XDG_RUNTIME_DIR"):  # headless EGL complains without one
+        runtime_dir = Path(tempfile.gettempdir()) / f"sandbox-runtime-{os.getuid()}"
+        runtime_dir.mkdir(mode=0o700, exist_ok=True)
+        os.environ["XDG_RUNTIME_DIR"] = str(runtime_dir)
     with o3d.utility.VerbosityContextManager(o3d.utility.VerbosityLevel.Error):
         vis = o3d.visualization.Visualizer()
         ok = vis.create_window(window_name="sandbox", width=width, height=height, visible=False)

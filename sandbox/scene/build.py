@@ -144,10 +144,44 @@ def _altitude(uv, i0, i1, i2):
     return np.abs(e[:, 0] * d[:, 1] - e[:, 1] * d[:, 0]) / np.linalg.norm(e, axis=1)
 
 
+def collider_mesh(c) -> tuple[np.ndarray, np.ndarray, bool]:
+    """Vertices (m, 3) [m], outward triangles (k, 3) and closedness of one collider."""
+    from sandbox.collision import shapes
+
+    p = c.params
+    rot = rotation_matrix(p["rotation_deg"]) if "rotation_deg" in p else None
+    if c.shape == "sphere":
+        return shapes.sphere(p["center_m"], p["radius_m"], p["subdivisions"])
+    if c.shape == "box":
+        return shapes.box(p["center_m"], p["size_m"], rot)
+    if c.shape == "cylinder":
+        return shapes.cylinder(p["center_m"], p["radius_m"], p["height_m"], rot)
+    if c.shape == "plane":
+        return shapes.plane(p["point_m"], p["normal"], p["size_m"])
+    if c.shape == "mesh":
+        v, f, closed = shapes.mesh_file(p["path"], where=c.where)
+        return (v * p["scale"]) @ rot.T + np.asarray(p["origin_m"]), f, closed
+    return shapes.mannequin(p["size"], p["measurements_cm"])
+
+
+def build_collider(c, collision):
+    """A BodyCollider (Taichi fields and grid) for one collider spec."""
+    from sandbox.collision.body import BodyCollider
+
+    v, f, closed = collider_mesh(c)
+    return BodyCollider(
+        v, f, thickness_m=collision.thickness_m, friction_static=collision.friction_static,
+        friction_kinetic=collision.friction_kinetic, name=c.name, closed=closed,
+    )  # fmt: skip
+
+
 def build_scene(spec: SceneSpec) -> Scene:
     """Mesh, check and allocate a scene. Initialises Taichi on the CPU if nobody did."""
     builder = ModelBuilder()
     meshed = []
+    for c in spec.colliders:
+        if c.shape == "mesh":  # read (and check) collider files before Taichi starts
+            collider_mesh(c)
     for c in spec.cloths:
         uv, tris = mesh_cloth(c)
         pins = resolve_pins(c, uv)
@@ -168,6 +202,7 @@ def build_scene(spec: SceneSpec) -> Scene:
             meta={"mesher": c.mesher},
         )
     model = builder.finalize(bending=spec.simulation.bending)
+    model.colliders = [build_collider(c, spec.collision) for c in spec.colliders]
     sim = spec.simulation
     frame = 1.0 / sim.frame_rate_hz
     limit = stable_dt_estimate(model)

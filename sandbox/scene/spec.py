@@ -75,12 +75,44 @@ class StopSpec:
 
 
 @dataclass
+class CollisionSpec:
+    """Contact settings (Bridson et al. 2002): proximity thickness and Coulomb friction."""
+
+    thickness_m: float = 2e-3
+    friction_static: float = 0.4
+    friction_kinetic: float = 0.3
+    self_collision: bool = False
+
+
+COLLIDER_KEYS = {
+    "sphere": {"center_m", "radius_m", "subdivisions"},
+    "box": {"center_m", "size_m", "rotation_deg"},
+    "cylinder": {"center_m", "radius_m", "height_m", "rotation_deg"},
+    "plane": {"point_m", "normal", "size_m"},
+    "mesh": {"path", "scale", "origin_m", "rotation_deg"},
+    "mannequin": {"size", "measurements_cm"},
+}
+
+
+@dataclass
+class ColliderSpec:
+    """A rigid collider: a shape name and its checked parameters (SI units)."""
+
+    name: str
+    shape: str
+    params: dict
+    where: str = ""
+
+
+@dataclass
 class SceneSpec:
     name: str
     description: str = ""
     simulation: SimulationSpec = field(default_factory=SimulationSpec)
     stop: StopSpec = field(default_factory=StopSpec)
+    collision: CollisionSpec = field(default_factory=CollisionSpec)
     cloths: list[ClothSpec] = field(default_factory=list)
+    colliders: list[ColliderSpec] = field(default_factory=list)
     source: str = "<scene>"
 
 
@@ -102,7 +134,7 @@ def load_scene(path: str | Path) -> SceneSpec:
 def scene_from_dict(data: dict, *, source: str = "<scene>") -> SceneSpec:
     """Check a scene given as nested dicts (as read from TOML)."""
     r = _Reader(source)
-    r.keys(data, "", {"scene", "simulation", "stop", "cloth"})
+    r.keys(data, "", {"scene", "simulation", "stop", "cloth", "collision", "collider"})
     head = data.get("scene", {})
     r.keys(head, "[scene]", {"name", "description"})
     spec = SceneSpec(
@@ -116,6 +148,11 @@ def scene_from_dict(data: dict, *, source: str = "<scene>") -> SceneSpec:
     if not isinstance(cloths, list) or not cloths:
         raise SandboxError(f"{source}: the scene needs at least one [[cloth]] table")
     spec.cloths = [_cloth(r, c, f"cloth[{i}]") for i, c in enumerate(cloths)]
+    spec.collision = _collision(r, data.get("collision", {}))
+    colliders = data.get("collider", [])
+    if not isinstance(colliders, list):
+        raise SandboxError(f"{source}: collider must be an array of tables [[collider]]")
+    spec.colliders = [_collider(r, c, f"collider[{i}]") for i, c in enumerate(colliders)]
     names = [c.name for c in spec.cloths]
     dup = {n for n in names if names.count(n) > 1}
     if dup:
@@ -207,6 +244,68 @@ def _cloth(r: _Reader, t: dict, w: str) -> ClothSpec:
     if c.mesh_lines_m and c.mesher == "grid":
         raise SandboxError(f'{r.source}: {w}: mesh_lines_m needs mesher = "irregular"')
     return c
+
+
+def _collision(r: _Reader, t: dict) -> CollisionSpec:
+    w = "[collision]"
+    c = CollisionSpec()
+    r.keys(t, w, set(c.__dataclass_fields__))
+    c.thickness_m = r.number(t, w, "thickness_m", c.thickness_m, positive=True)
+    c.friction_static = r.number(t, w, "friction_static", c.friction_static, minimum=0.0)
+    c.friction_kinetic = r.number(t, w, "friction_kinetic", c.friction_kinetic, minimum=0.0)
+    c.self_collision = r.boolean(t, w, "self_collision", c.self_collision)
+    if c.friction_kinetic > c.friction_static:
+        raise SandboxError(f"{r.source}: {w}: friction_kinetic must not exceed friction_static")
+    if c.self_collision:
+        raise SandboxError(
+            f"{r.source}: {w} self_collision = true is not available yet (issue 4); set it to false"
+        )
+    return c
+
+
+def _collider(r: _Reader, t, w: str) -> ColliderSpec:
+    if not isinstance(t, dict):
+        raise SandboxError(f"{r.source}: {w} must be a table")
+    shape = r.choice(t, w, "shape", tuple(COLLIDER_KEYS), None)
+    r.keys(t, w, {"name", "shape"} | COLLIDER_KEYS[shape])
+    p: dict = {}
+    if shape in ("sphere", "box", "cylinder"):
+        p["center_m"] = r.vector(t, w, "center_m", 3, None)
+    if shape in ("sphere", "cylinder"):
+        p["radius_m"] = r.number(t, w, "radius_m", None, positive=True)
+    if shape == "sphere":
+        p["subdivisions"] = int(r.number(t, w, "subdivisions", 4, positive=True, integer=True))
+    if shape == "cylinder":
+        p["height_m"] = r.number(t, w, "height_m", None, positive=True)
+    if shape == "box":
+        p["size_m"] = r.vector(t, w, "size_m", 3, None, positive=True)
+    if shape in ("box", "cylinder", "mesh"):
+        p["rotation_deg"] = r.vector(t, w, "rotation_deg", 3, (0.0, 0.0, 0.0))
+    if shape == "plane":
+        p["point_m"] = r.vector(t, w, "point_m", 3, (0.0, 0.0, 0.0))
+        p["normal"] = r.vector(t, w, "normal", 3, (0.0, 1.0, 0.0))
+        p["size_m"] = r.number(t, w, "size_m", 10.0, positive=True)
+    if shape == "mesh":
+        path = r.string(t, w, "path", "")
+        if not path:
+            r.fail(w, "path", "is missing (a mesh file: OBJ, PLY, GLB, STL)")
+        base = Path(r.source).parent if r.source not in ("<scene>",) else Path(".")
+        p["path"] = str((base / path).resolve()) if not Path(path).is_absolute() else path
+        if not Path(p["path"]).is_file():
+            r.fail(w, "path", f"no such file: {p['path']}")
+        p["scale"] = r.number(t, w, "scale", 1.0, positive=True)
+        p["origin_m"] = r.vector(t, w, "origin_m", 3, (0.0, 0.0, 0.0))
+    if shape == "mannequin":
+        size = t.get("size")
+        if size is not None and (isinstance(size, bool) or not isinstance(size, int)):
+            r.fail(w, "size", f"must be a size number from the database, got {size!r}")
+        p["size"] = size
+        m = t.get("measurements_cm", {})
+        if not isinstance(m, dict):
+            r.fail(w, "measurements_cm", "must be a table of measurements in cm")
+        p["measurements_cm"] = m
+    return ColliderSpec(name=r.string(t, w, "name", w), shape=shape, params=p,
+                        where=f"{r.source}: {w}")  # fmt: skip
 
 
 def _pin(r: _Reader, t, w: str) -> PinSpec:

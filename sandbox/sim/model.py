@@ -7,7 +7,7 @@ what a user or script may change between steps (gravity, damping) without recomp
 
 Only what the scene needs is allocated: no hinge fields when bending is off
 (``model.hinge_count == 0`` and ``model.hinge_indices is None``), no collision structures
-when there is nothing to collide with (``model.collider is None``).
+when there is nothing to collide with (``model.colliders == []``).
 """
 
 from __future__ import annotations
@@ -85,7 +85,7 @@ class Model:
         self.tri_stiffness_np = tri_stiffness
         self.hinge_indices_np = hinge_indices
         self.hinge_stiffness_np = hinge_stiffness
-        self.collider = None  # collision structures arrive with colliders (issue 4)
+        self.colliders: list = []  # BodyColliders, added by the scene only when it has some
 
         n, m, h = self.particle_count, self.tri_count, self.hinge_count
         self.particle_mass = ti.field(float, shape=max(1, n))

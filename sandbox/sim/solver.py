@@ -185,6 +185,9 @@ class SymplecticEulerSolver:
                 # Eq. 2: v(t+dt) = v(t) + dt F(t)/m, F = F_int + m g − γ m v(t)
                 f = self._gathered_force(i)
                 v_new = v_in[i] + dt * (f * w + gravity[None] - damping[None] * v_in[i])
+                # contact (§2.5): each collider revises v(t+dt) before the position update
+                for c in ti.static(m.colliders):
+                    v_new = c.respond(x_in[i], v_new, dt)
             # Eq. 2: x(t+dt) = x(t) + dt v(t+dt)
             x_new = x_in[i] + dt * v_new
             if not (ti.abs(x_new).max() < 1e30):  # catches NaN and infinity

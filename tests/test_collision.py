@@ -1,0 +1,122 @@
+"""Cloth against rigid bodies (§2.5, Bridson et al. 2002): nothing passes through."""
+
+import math
+
+import numpy as np
+import pytest
+
+from sandbox.scene.build import build_scene, rotation_matrix
+from sandbox.scene.run import run_scene
+from sandbox.scene.spec import scene_from_dict
+
+
+def scene(cloth: dict, colliders: list, **tables):
+    data = {
+        "scene": {"name": "collision_test"},
+        "simulation": {"damping_per_s": 1.0},
+        "stop": {"time_limit_s": 1.0},
+        "collision": {"thickness_m": 0.003},
+        "cloth": [dict({"name": "sheet", "edge_length_m": 0.02, "material": "jersey"}, **cloth)],
+        "collider": colliders,
+    }
+    for key, value in tables.items():
+        data.setdefault(key, {}).update(value)
+    return build_scene(scene_from_dict(data, source="collision_test.toml"))
+
+
+def test_sheet_dropped_on_a_sphere_stays_outside():
+    sc = scene(
+        {"size_m": [0.5, 0.5], "origin_m": [-0.25, 0.3, 0.25], "rotation_deg": [-90, 0, 0]},
+        [{"name": "ball", "shape": "sphere", "center_m": [0, 0, 0], "radius_m": 0.2}],
+    )
+    r = run_scene(sc, progress=False)
+    radius = np.linalg.norm(r.positions, axis=1)
+    assert np.isfinite(r.positions).all()
+    assert (radius < 0.2).sum() == 0  # no vertex inside the (tessellated) sphere
+    assert radius.min() > 0.2 - 1e-3
+    top = r.positions[np.argmin(np.linalg.norm(r.positions[:, [0, 2]], axis=1))]
+    assert 0.2 < top[1] < 0.2 + 0.01  # the sheet rests on the sphere, not above or in it
+
+
+def test_sheet_dropped_on_the_edge_of_a_box_stays_outside():
+    sc = scene(
+        {"size_m": [0.4, 0.4], "origin_m": [-0.1, 0.25, 0.2], "rotation_deg": [-90, 0, 0]},
+        [{"name": "box", "shape": "box", "center_m": [-0.15, 0.0, 0.0],
+          "size_m": [0.3, 0.4, 0.4]}],  # fmt: skip
+    )
+    r = run_scene(sc, progress=False)
+    x = r.positions
+    inside = (
+        (np.abs(x[:, 0] + 0.15) < 0.15) & (np.abs(x[:, 1]) < 0.2) & (np.abs(x[:, 2]) < 0.2)
+    )
+    assert inside.sum() == 0 and np.isfinite(x).all()
+    assert x[:, 1].min() < 0.1  # the free part fell past the edge
+
+
+def test_sheet_thrown_fast_at_a_thin_cylinder_does_not_pass_through():
+    """10 m/s against an arm-sized cylinder (r = 3 cm) with a large time step."""
+    sc = scene(
+        {"size_m": [0.3, 0.3], "origin_m": [-0.15, -0.15, 0.1], "velocity_m_s": [0, 0, -10.0],
+         "edge_length_m": 0.015,
+         # a very soft cloth, so that the explicit step may be large (5 ms)
+         "material": {"preset": "jersey", "stretch_u_N_m": 1.0, "stretch_v_N_m": 1.0,
+                      "shear_N_m": 0.5, "bend_Nm": 1e-7}},  # fmt: skip
+        [{"name": "arm", "shape": "cylinder", "center_m": [0, 0, 0], "radius_m": 0.03,
+          "height_m": 0.6, "rotation_deg": [0, 0, 90]}],  # fmt: skip
+        simulation={"dt_s": 4e-3, "gravity_m_s2": [0, 0, 0], "damping_per_s": 0.0},
+        stop={"time_limit_s": 0.1},
+    )
+    assert sc.dt_s * 10.0 > 0.03  # a vertex moves more than the arm's radius in one step
+    worst = []
+
+    def inside_count(scene_, frame):
+        x = scene_.state.positions()
+        radial = np.linalg.norm(x[:, [1, 2]], axis=1)  # the arm lies along X
+        worst.append(int(((radial < 0.03) & (np.abs(x[:, 0]) < 0.3)).sum()))
+
+    sc.spec.stop.time_limit_s = 0.03
+    sc.spec.simulation.frame_rate_hz = 30
+    sc.solver.reset_watch()
+    for _ in range(8):  # check after every step of 4 ms, not just every frame
+        sc.solver.advance(sc.state, sc.control, sc.dt_s, 1)
+        inside_count(sc, 0)
+    x = sc.state.positions()
+    assert max(worst) == 0 and np.isfinite(x).all()
+    uv = sc.model.rest_uv_np
+    centre_line = (np.abs(uv[:, 1] - 0.15) < 0.012) & (np.abs(uv[:, 0] - 0.15) < 0.1)
+    assert centre_line.sum() > 3
+    assert (x[centre_line, 2] > 0).all()  # caught in front of the arm, not through it
+    assert (x[~centre_line, 2] < 0.1).any()  # while the rest of the sheet flew on
+
+
+@pytest.mark.parametrize("angle_deg, mu", [(15.0, 0.4), (30.0, 0.2), (40.0, 0.3)])
+def test_square_on_an_inclined_plane_sticks_or_slides_with_coulomb_friction(angle_deg, mu):
+    alpha = math.radians(angle_deg)
+    n = np.array([0.0, math.cos(alpha), math.sin(alpha)])  # plane tilted about X
+    h = 0.003
+    rot = [-90.0 + angle_deg, 0.0, 0.0]  # the square lies in the plane
+    origin = (rotation_matrix(rot) @ np.array([-0.05, -0.05, 0.0])) + h * n
+    sc = scene(
+        {"size_m": [0.1, 0.1], "origin_m": origin.tolist(), "rotation_deg": rot,
+         "material": "denim"},  # fmt: skip
+        [{"name": "slope", "shape": "plane", "point_m": [0, 0, 0], "normal": n.tolist(),
+          "size_m": 4.0}],  # fmt: skip
+        collision={"thickness_m": h, "friction_static": mu, "friction_kinetic": mu},
+        simulation={"damping_per_s": 0.0},
+    )
+    x0 = sc.state.positions().mean(axis=0)
+    down = np.array([0.0, -math.sin(alpha), math.cos(alpha)])  # down the slope, in plane
+    down -= down.dot(n) * n
+    down /= np.linalg.norm(down)
+    t_end = 0.3
+    steps = round(t_end / sc.dt_s)
+    sc.solver.advance(sc.state, sc.control, sc.dt_s, steps)
+    travelled = (sc.state.positions().mean(axis=0) - x0).dot(down)
+    t = steps * sc.dt_s
+    expected_a = 9.80665 * (math.sin(alpha) - mu * math.cos(alpha))
+    if math.tan(alpha) <= mu:
+        assert abs(travelled) < 1e-4
+    else:
+        assert 2 * travelled / t**2 == pytest.approx(expected_a, rel=0.05)
+    off_plane = (sc.state.positions() @ n).min()
+    assert off_plane > 0.0  # never through the plane
