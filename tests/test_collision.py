@@ -41,14 +41,18 @@ def test_sheet_dropped_on_a_sphere_stays_outside():
 def test_sheet_dropped_on_the_edge_of_a_box_stays_outside():
     sc = scene(
         {"size_m": [0.4, 0.4], "origin_m": [-0.1, 0.25, 0.2], "rotation_deg": [-90, 0, 0]},
-        [{"name": "box", "shape": "box", "center_m": [-0.15, 0.0, 0.0],
-          "size_m": [0.3, 0.4, 0.4]}],  # fmt: skip
+        [
+            {
+                "name": "box",
+                "shape": "box",
+                "center_m": [-0.15, 0.0, 0.0],
+                "size_m": [0.3, 0.4, 0.4],
+            }
+        ],  # fmt: skip
     )
     r = run_scene(sc, progress=False)
     x = r.positions
-    inside = (
-        (np.abs(x[:, 0] + 0.15) < 0.15) & (np.abs(x[:, 1]) < 0.2) & (np.abs(x[:, 2]) < 0.2)
-    )
+    inside = (np.abs(x[:, 0] + 0.15) < 0.15) & (np.abs(x[:, 1]) < 0.2) & (np.abs(x[:, 2]) < 0.2)
     assert inside.sum() == 0 and np.isfinite(x).all()
     assert x[:, 1].min() < 0.1  # the free part fell past the edge
 
@@ -56,13 +60,30 @@ def test_sheet_dropped_on_the_edge_of_a_box_stays_outside():
 def test_sheet_thrown_fast_at_a_thin_cylinder_does_not_pass_through():
     """10 m/s against an arm-sized cylinder (r = 3 cm) with a large time step."""
     sc = scene(
-        {"size_m": [0.3, 0.3], "origin_m": [-0.15, -0.15, 0.1], "velocity_m_s": [0, 0, -10.0],
-         "edge_length_m": 0.015,
-         # a very soft cloth, so that the explicit step may be large (5 ms)
-         "material": {"preset": "jersey", "stretch_u_N_m": 1.0, "stretch_v_N_m": 1.0,
-                      "shear_N_m": 0.5, "bend_Nm": 1e-7}},  # fmt: skip
-        [{"name": "arm", "shape": "cylinder", "center_m": [0, 0, 0], "radius_m": 0.03,
-          "height_m": 0.6, "rotation_deg": [0, 0, 90]}],  # fmt: skip
+        {
+            "size_m": [0.3, 0.3],
+            "origin_m": [-0.15, -0.15, 0.1],
+            "velocity_m_s": [0, 0, -10.0],
+            "edge_length_m": 0.015,
+            # a very soft cloth, so that the explicit step may be large (5 ms)
+            "material": {
+                "preset": "jersey",
+                "stretch_u_N_m": 1.0,
+                "stretch_v_N_m": 1.0,
+                "shear_N_m": 0.5,
+                "bend_Nm": 1e-7,
+            },
+        },  # fmt: skip
+        [
+            {
+                "name": "arm",
+                "shape": "cylinder",
+                "center_m": [0, 0, 0],
+                "radius_m": 0.03,
+                "height_m": 0.6,
+                "rotation_deg": [0, 0, 90],
+            }
+        ],  # fmt: skip
         simulation={"dt_s": 4e-3, "gravity_m_s2": [0, 0, 0], "damping_per_s": 0.0},
         stop={"time_limit_s": 0.1},
     )
@@ -97,10 +118,21 @@ def test_square_on_an_inclined_plane_sticks_or_slides_with_coulomb_friction(angl
     rot = [-90.0 + angle_deg, 0.0, 0.0]  # the square lies in the plane
     origin = (rotation_matrix(rot) @ np.array([-0.05, -0.05, 0.0])) + h * n
     sc = scene(
-        {"size_m": [0.1, 0.1], "origin_m": origin.tolist(), "rotation_deg": rot,
-         "material": "denim"},  # fmt: skip
-        [{"name": "slope", "shape": "plane", "point_m": [0, 0, 0], "normal": n.tolist(),
-          "size_m": 4.0}],  # fmt: skip
+        {
+            "size_m": [0.1, 0.1],
+            "origin_m": origin.tolist(),
+            "rotation_deg": rot,
+            "material": "denim",
+        },  # fmt: skip
+        [
+            {
+                "name": "slope",
+                "shape": "plane",
+                "point_m": [0, 0, 0],
+                "normal": n.tolist(),
+                "size_m": 4.0,
+            }
+        ],  # fmt: skip
         collision={"thickness_m": h, "friction_static": mu, "friction_kinetic": mu},
         simulation={"damping_per_s": 0.0},
     )
