@@ -209,6 +209,9 @@ class BodyCollider:
                             best_q = q
                             best_pn = n
         v_new = v
+        if dt <= 0.0:  # a zero step (the compile warm-up) moves nothing: nothing to revise
+            best_t = 2.0
+            best_d = 1e30
         if best_t <= 1.0:
             # stop in front of the first crossing, then let proximity add friction below
             hit_p = x + best_t * (x1 - x)

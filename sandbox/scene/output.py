@@ -18,6 +18,7 @@ from sandbox.scene.run import RunResult
 log = logging.getLogger(__name__)
 
 CLOTH_COLOR = (0.32, 0.45, 0.75)
+BODY_COLOR = (0.82, 0.76, 0.68)
 
 
 def write_outputs(scene: Scene, result: RunResult, out_dir, *, render: bool = True) -> dict:
@@ -37,7 +38,9 @@ def write_outputs(scene: Scene, result: RunResult, out_dir, *, render: bool = Tr
         "mesh_ply": write_mesh(out / "mesh.ply", x, tris, uvs=model.rest_uv_np),
     }
     if render:
-        paths["image"] = render_state(out / "render.png", x, tris)
+        bodies = [(c.body_x.to_numpy().astype(np.float64), c.triangles_np)
+                  for c in model.colliders if c.closed]  # fmt: skip
+        paths["image"] = render_state(out / "render.png", x, tris, bodies=bodies)
     metrics = dict(result.metrics)
     metrics["outputs"] = {k: p.name for k, p in paths.items()}
     metrics["bounding_box_m"] = [x.min(axis=0).tolist(), x.max(axis=0).tolist()]
@@ -45,12 +48,13 @@ def write_outputs(scene: Scene, result: RunResult, out_dir, *, render: bool = Tr
     return paths
 
 
-def render_state(path, x: np.ndarray, tris: np.ndarray, *, views=("front", "side")) -> Path:
-    """Off-screen PNG of the cloth (front and side views)."""
+def render_state(path, x: np.ndarray, tris: np.ndarray, *, bodies=(), views=("front", "side")):
+    """Off-screen PNG of the cloth and any closed colliders (front and side views)."""
     from sandbox.render.offscreen import render_png
 
-    mesh = {"vertices": x, "triangles": tris, "color": CLOTH_COLOR}
-    return render_png(path, [mesh], views=views, width=480, height=480)
+    meshes = [{"vertices": x, "triangles": tris, "color": CLOTH_COLOR}]
+    meshes += [{"vertices": v, "triangles": f, "color": BODY_COLOR} for v, f in bodies]
+    return render_png(path, meshes, views=views, width=480, height=480)
 
 
 def _jsonable(obj):
