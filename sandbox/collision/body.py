@@ -35,7 +35,8 @@ class BodyCollider:
         (counter-clockwise seen from outside). thickness_m: cloth thickness/proximity
         distance. friction_static, friction_kinetic: Coulomb coefficients. closed: the
         mesh bounds a solid, so cloth is always pushed to the outside of its faces (this
-        also frees a vertex that started inside); an open mesh (a plane, a single surface)
+        also frees a vertex less than ``thickness`` inside; cloth must start outside);
+        an open mesh (a plane, a single surface)
         pushes each vertex back to the side it came from.
     """
 
@@ -77,7 +78,7 @@ class BodyCollider:
         self.mu_k[None] = friction_kinetic
         # grid: cell size near the mean edge length, dims fixed from the first bounds
         edges = np.linalg.norm(v[t[:, [1, 2, 0]]] - v[t], axis=2)
-        self.cell_size_init = float(max(2.0 * edges.mean(), 4 * thickness_m))
+        self.cell_size_init = float(max(edges.mean(), 4 * thickness_m))
         self.extent_init = float(np.ptp(v, axis=0).max())
         span = np.ptp(v, axis=0) * 1.6 + 8 * self.cell_size_init
         self.dims = tuple(int(min(256, max(1, math.ceil(s / self.cell_size_init)))) for s in span)
@@ -191,23 +192,26 @@ class BodyCollider:
                     n = self.tri_normal[t]
                     s0 = (x - a).dot(n)
                     s1 = (x1 - a).dot(n)
-                    # cheap reject: both ends on one side of the plane and beyond reach
-                    if ti.min(ti.abs(s0), ti.abs(s1)) <= h or s0 * s1 <= 0.0:
+                    # a crossing needs the two ends on opposite sides of the plane, and
+                    # proximity needs the predicted position within h of the plane
+                    if s0 * s1 <= 0.0 or ti.abs(s1) <= h:
                         b = self.body_x[self.tri[t][1]]
                         c = self.body_x[self.tri[t][2]]
-                        hit, s = segment_triangle(x, x1, a, b, c)
-                        if hit and s < best_t:
-                            best_t = s
-                            best_n = n
-                            if ti.static(not self.closed):
-                                if (x - a).dot(n) < 0.0:
-                                    best_n = -n
-                        q = closest_point_on_triangle(x1, a, b, c)
-                        d = (x1 - q).norm()
-                        if d < best_d:
-                            best_d = d
-                            best_q = q
-                            best_pn = n
+                        if s0 * s1 <= 0.0:
+                            hit, s = segment_triangle(x, x1, a, b, c)
+                            if hit and s < best_t:
+                                best_t = s
+                                best_n = n
+                                if ti.static(not self.closed):
+                                    if s0 < 0.0:
+                                        best_n = -n
+                        if ti.abs(s1) <= h or s0 * s1 <= 0.0:
+                            q = closest_point_on_triangle(x1, a, b, c)
+                            d = (x1 - q).norm()
+                            if d < best_d:
+                                best_d = d
+                                best_q = q
+                                best_pn = n
         v_new = v
         if dt <= 0.0:  # a zero step (the compile warm-up) moves nothing: nothing to revise
             best_t = 2.0
