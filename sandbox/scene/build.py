@@ -133,6 +133,8 @@ def stable_dt_estimate(model: Model) -> float:
         # |∂θ/∂x| ~ 1/altitude for the opposite vertices; Gershgorin over the 4 vertices
         kb = model.hinge_stiffness_np * (2.0 / alt) * (4.0 / alt)
         np.add.at(k, h.ravel(), np.repeat(kb, 4))
+    if model.seam_count:
+        np.add.at(k, model.seam_pairs_np.ravel(), np.repeat(model.seam_stiffness_np, 2))
     omega = np.sqrt(k / model.mass_np)
     w = float(omega[~model.pinned_np].max()) if (~model.pinned_np).any() else 0.0
     return 2.0 / w if w > 0 else math.inf
@@ -201,6 +203,13 @@ def build_scene(spec: SceneSpec) -> Scene:
             where=c.where,
             meta={"mesher": c.mesher},
         )
+    index = {c.name: i for i, c in enumerate(spec.cloths)}
+    for sm in spec.seams:
+        builder.add_seam(
+            side_a=[(index[n], a, b) for n, a, b in sm.side_a],
+            side_b=[(index[n], a, b) for n, a, b in sm.side_b],
+            direction=sm.direction, stiffness_N_m=sm.stiffness_N_m, where=sm.where,
+        )  # fmt: skip
     model = builder.finalize(bending=spec.simulation.bending)
     model.colliders = [build_collider(c, spec.collision) for c in spec.colliders]
     sim = spec.simulation

@@ -109,9 +109,19 @@ def run_scene(
         "stop_mean_displacement_m": stop.mean_displacement_m,
         "vertex_steps_per_s": model.particle_count * steps / wall if wall > 0 else None,
     }
+    if model.seam_count:
+        metrics["seam_count"] = model.seam_count
+        metrics["seam_gap_max_m"] = seam_gap_max(model, scene.state.positions())
     log.info("%s: %s after %d steps (%.2f s simulated, %.2f s wall)", spec.name, reason,
              steps, steps * scene.dt_s, wall)  # fmt: skip
     return RunResult(converged, reason, metrics, scene.state.positions())
+
+
+def seam_gap_max(model, x: np.ndarray) -> float:
+    """Largest seam spring stretch beyond its rest length [m] (0 when all seams closed)."""
+    p = model.seam_pairs_np
+    gap = np.linalg.norm(x[p[:, 0]] - x[p[:, 1]], axis=1) - model.seam_rest_np
+    return float(max(0.0, gap.max()))
 
 
 def _diverged_message(scene: Scene, step: int, vertex: int) -> str:

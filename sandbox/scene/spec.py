@@ -105,6 +105,18 @@ class ColliderSpec:
 
 
 @dataclass
+class SeamSpec:
+    """Two seam lines, each a list of (cloth name, (u0, v0), (u1, v1)) pattern edges."""
+
+    name: str
+    side_a: list
+    side_b: list
+    direction: str = "auto"
+    stiffness_N_m: float | None = None
+    where: str = ""
+
+
+@dataclass
 class SceneSpec:
     name: str
     description: str = ""
@@ -113,6 +125,7 @@ class SceneSpec:
     collision: CollisionSpec = field(default_factory=CollisionSpec)
     cloths: list[ClothSpec] = field(default_factory=list)
     colliders: list[ColliderSpec] = field(default_factory=list)
+    seams: list[SeamSpec] = field(default_factory=list)
     source: str = "<scene>"
 
 
@@ -134,7 +147,7 @@ def load_scene(path: str | Path) -> SceneSpec:
 def scene_from_dict(data: dict, *, source: str = "<scene>") -> SceneSpec:
     """Check a scene given as nested dicts (as read from TOML)."""
     r = _Reader(source)
-    r.keys(data, "", {"scene", "simulation", "stop", "cloth", "collision", "collider"})
+    r.keys(data, "", {"scene", "simulation", "stop", "cloth", "collision", "collider", "seam"})
     head = data.get("scene", {})
     r.keys(head, "[scene]", {"name", "description"})
     spec = SceneSpec(
@@ -153,6 +166,11 @@ def scene_from_dict(data: dict, *, source: str = "<scene>") -> SceneSpec:
     if not isinstance(colliders, list):
         raise SandboxError(f"{source}: collider must be an array of tables [[collider]]")
     spec.colliders = [_collider(r, c, f"collider[{i}]") for i, c in enumerate(colliders)]
+    seams = data.get("seam", [])
+    if not isinstance(seams, list):
+        raise SandboxError(f"{source}: seam must be an array of tables [[seam]]")
+    by_name = {c.name: c for c in spec.cloths}
+    spec.seams = [_seam(r, t, f"seam[{i}]", by_name) for i, t in enumerate(seams)]
     names = [c.name for c in spec.cloths]
     dup = {n for n in names if names.count(n) > 1}
     if dup:
@@ -306,6 +324,46 @@ def _collider(r: _Reader, t, w: str) -> ColliderSpec:
         p["measurements_cm"] = m
     return ColliderSpec(name=r.string(t, w, "name", w), shape=shape, params=p,
                         where=f"{r.source}: {w}")  # fmt: skip
+
+
+def _seam(r: _Reader, t, w: str, cloths: dict) -> SeamSpec:
+    if not isinstance(t, dict):
+        raise SandboxError(f"{r.source}: {w} must be a table")
+    r.keys(t, w, {"name", "a", "b", "direction", "stiffness_N_m"})
+    sides = []
+    for key in ("a", "b"):
+        edges = t.get(key)
+        if not isinstance(edges, list) or not edges:
+            r.fail(w, key, 'must be a list of edges such as [{ cloth = "front", edge = 1 }]')
+        side = []
+        for i, e in enumerate(edges):
+            we = f"{w}.{key}[{i}]"
+            if not isinstance(e, dict):
+                raise SandboxError(f"{r.source}: {we} must be a table")
+            r.keys(e, we, {"cloth", "edge", "from_m", "to_m"})
+            name = r.string(e, we, "cloth", "")
+            if name not in cloths:
+                r.fail(we, "cloth", f"no cloth named {name!r} (known: {', '.join(cloths)})")
+            outline = cloths[name].outline_m
+            if "edge" in e:
+                k = e["edge"]
+                if isinstance(k, bool) or not isinstance(k, int) or not 0 <= k < len(outline):
+                    r.fail(we, "edge", f"must be an outline edge number 0..{len(outline) - 1}")
+                a, b = outline[k], outline[(k + 1) % len(outline)]
+            else:
+                a = r.vector(e, we, "from_m", 2, None)
+                b = r.vector(e, we, "to_m", 2, None)
+            side.append((name, tuple(a), tuple(b)))
+        sides.append(side)
+    k = t.get("stiffness_N_m")
+    return SeamSpec(
+        name=r.string(t, w, "name", w),
+        side_a=sides[0],
+        side_b=sides[1],
+        direction=r.choice(t, w, "direction", ("auto", "same", "reverse"), "auto"),
+        stiffness_N_m=None if k is None else r.number(t, w, "stiffness_N_m", None, True),
+        where=f"{r.source}: {w}",
+    )
 
 
 def _pin(r: _Reader, t, w: str) -> PinSpec:

@@ -14,8 +14,13 @@ from sandbox.errors import SandboxError
 from sandbox.sim.hinges import bending_calibration, find_hinges, hinge_rest_weights
 from sandbox.sim.materials import Material, bend_rigidity_at
 from sandbox.sim.model import Model, PieceInfo
+from sandbox.sim.seams import edge_vertices, merge_lines, sew
 
 MIN_REST_AREA_M2 = 1e-14
+SEAM_CLOSE_TIME_S = 0.1
+"""Default seam springs close a gap on this time scale: k = m (2π/T)² for the mean mass m
+of the sewn particles. Springs as stiff as the cloth itself snap the edge across a gap of
+centimetres in milliseconds and crumple the panels."""
 
 
 class ModelBuilder:
@@ -23,6 +28,25 @@ class ModelBuilder:
 
     def __init__(self):
         self._pieces: list[dict] = []
+        self._seams: list[dict] = []
+
+    def add_seam(self, *, side_a, side_b, direction: str = "auto", stiffness_N_m=None,
+                 where: str = "seam") -> None:  # fmt: skip
+        """Sew two seam lines (paper §2.4).
+
+        ``side_a`` and ``side_b`` are lists of ``(piece index, (u0, v0), (u1, v1))``: pattern
+        edges of the pieces, in order; several edges on one side are merged into one line.
+        ``direction`` is "auto" (Fig. 5a), "same" or "reverse". ``stiffness_N_m`` per spring
+        defaults to m (2π/SEAM_CLOSE_TIME_S)² with m the mean mass of the sewn particles.
+        """
+        if direction not in ("auto", "same", "reverse"):
+            raise SandboxError(f"{where}: direction must be auto, same or reverse")
+        for side in (side_a, side_b):
+            for piece, _, _ in side:
+                if not 0 <= piece < len(self._pieces):
+                    raise SandboxError(f"{where}: no cloth piece number {piece}")
+        self._seams.append(dict(a=side_a, b=side_b, direction=direction, k=stiffness_N_m,
+                                where=where))  # fmt: skip
 
     def add_cloth(
         self,
@@ -153,6 +177,9 @@ class ModelBuilder:
             )
             offset += n
             tri_offset += len(tris)
+        world_all = np.concatenate(xs)
+        self._mass_all = np.concatenate(masses)
+        seam_pairs, seam_rest, seam_k = self._sew(world_all, [p.particle_start for p in pieces])
         hinge_indices = np.concatenate(h_idx) if h_idx else None
         if hinge_indices is not None and len(hinge_indices) == 0:
             hinge_indices = None
@@ -170,4 +197,34 @@ class ModelBuilder:
             hinge_rest_angle=None if hinge_indices is None else np.concatenate(h_rest),
             hinge_stiffness=None if hinge_indices is None else np.concatenate(h_k),
             pieces=pieces,
+            seam_pairs=seam_pairs,
+            seam_rest=seam_rest,
+            seam_stiffness=seam_k,
         )
+
+    def _sew(self, world: np.ndarray, starts: list[int]):
+        """Seam springs of every add_seam call, as global particle pairs (or Nones)."""
+        if not self._seams:
+            return None, None, None
+        pairs, rest, stiff = [], [], []
+        self.seam_lines = []
+        for sm in self._seams:
+            lines = []
+            for side in (sm["a"], sm["b"]):
+                parts = []
+                for k, (piece, a, b) in enumerate(side):
+                    uv = self._pieces[piece]["uv"]
+                    idx = edge_vertices(uv, a, b, where=f"{sm['where']}: edge {k}")
+                    parts.append((idx + starts[piece], uv[idx]))
+                lines.append(merge_lines(parts))
+            p, r, _ = sew(lines[0], lines[1], world, sm["direction"])
+            if sm["k"] is not None:
+                k = sm["k"]
+            else:
+                mean_mass = float(self._mass_all[p.ravel()].mean())
+                k = mean_mass * (2.0 * math.pi / SEAM_CLOSE_TIME_S) ** 2
+            pairs.append(p)
+            rest.append(r)
+            stiff.append(np.full(len(p), float(k)))
+            self.seam_lines.append(lines)
+        return np.concatenate(pairs), np.concatenate(rest), np.concatenate(stiff)

@@ -51,6 +51,9 @@ class Model:
       vert_tri_start/slot         CSR incidence: the corners 3t+c of the triangles at each
                                   particle, so forces are gathered without atomics
       vert_hinge_start/slot       the same for hinge slots 4h+k
+      seam_pairs          (s,)    ivec2 particles joined by a seam spring (§2.4), only if sewn
+      seam_rest           (s,)    rest length [m] (0 where the parameters match)
+      seam_stiffness      (s,)    spring stiffness [N/m]
     Numpy copies of the inputs stay available as ``*_np`` attributes for writers and tests.
     """
 
@@ -70,10 +73,17 @@ class Model:
         hinge_rest_angle: np.ndarray | None,
         hinge_stiffness: np.ndarray | None,
         pieces: list[PieceInfo],
+        seam_pairs: np.ndarray | None = None,
+        seam_rest: np.ndarray | None = None,
+        seam_stiffness: np.ndarray | None = None,
     ):
         self.particle_count = int(len(positions))
         self.tri_count = int(len(tri_indices))
         self.hinge_count = 0 if hinge_indices is None else int(len(hinge_indices))
+        self.seam_count = 0 if seam_pairs is None else int(len(seam_pairs))
+        self.seam_pairs_np = seam_pairs
+        self.seam_rest_np = seam_rest
+        self.seam_stiffness_np = seam_stiffness
         self.pieces = pieces
         self.rest_uv_np = rest_uv
         self.initial_positions_np = positions
@@ -108,6 +118,17 @@ class Model:
         self.vert_hinge_start = self.vert_hinge_slot = None
         self.hinge_rest_angle = None
         self.hinge_stiffness = None
+        self.seam_pairs = self.seam_rest = self.seam_stiffness = None
+        self.vert_seam_start = self.vert_seam_slot = None
+        if self.seam_count:  # only a scene that sews gets seam fields
+            k = self.seam_count
+            self.seam_pairs = ti.Vector.field(2, ti.i32, shape=k)
+            self.seam_rest = ti.field(float, shape=k)
+            self.seam_stiffness = ti.field(float, shape=k)
+            self.seam_pairs.from_numpy(seam_pairs.astype(np.int32))
+            self.seam_rest.from_numpy(_f(seam_rest))
+            self.seam_stiffness.from_numpy(_f(seam_stiffness))
+            self.vert_seam_start, self.vert_seam_slot = _incidence(seam_pairs, n)
         if h:
             self.hinge_indices = ti.Vector.field(4, ti.i32, shape=h)
             self.hinge_rest_angle = ti.field(float, shape=h)

@@ -41,6 +41,9 @@ class SymplecticEulerSolver:
         self.hinge_force = None
         if model.hinge_count:
             self.hinge_force = ti.Vector.field(3, float, shape=4 * model.hinge_count)
+        self.seam_force = None
+        if model.seam_count:
+            self.seam_force = ti.Vector.field(3, float, shape=2 * model.seam_count)
         self.bad_step = ti.field(ti.i32, shape=())
         self.bad_vertex = ti.field(ti.i32, shape=())
         self.energy = ti.field(ti.f64, shape=())
@@ -133,6 +136,10 @@ class SymplecticEulerSolver:
                 th = forces.dihedral_angle(x[j[0]], x[j[1]], x[j[2]], x[j[3]])
                 d = th - m.hinge_rest_angle[h]
                 self.energy[None] += ti.cast(0.5 * m.hinge_stiffness[h] * d * d, ti.f64)
+        if ti.static(m.seam_count > 0):
+            for q in range(m.seam_count):
+                e = (x[m.seam_pairs[q][0]] - x[m.seam_pairs[q][1]]).norm() - m.seam_rest[q]
+                self.energy[None] += ti.cast(0.5 * m.seam_stiffness[q] * e * e, ti.f64)
 
     # ------------------------------------------------------------------ per-step pieces
     @ti.func
@@ -163,6 +170,25 @@ class SymplecticEulerSolver:
                 self.hinge_force[4 * h + 1] = s * g1
                 self.hinge_force[4 * h + 2] = s * g2
                 self.hinge_force[4 * h + 3] = s * g3
+        self._seam_forces(x)
+
+    @ti.func
+    def _seam_forces(self, x):
+        m = self.model
+        # §2.4: seam springs U = k/2 (|x_a − x_b| − r)^2, F_a = −k (|d| − r) d/|d|
+        if ti.static(m.seam_count > 0):
+            for q in range(m.seam_count):
+                a, b = m.seam_pairs[q][0], m.seam_pairs[q][1]
+                d = x[a] - x[b]
+                r = m.seam_rest[q]
+                f = -m.seam_stiffness[q] * d
+                if r > 0.0:
+                    length = d.norm()
+                    f = ti.Vector([0.0, 0.0, 0.0])
+                    if length > 1e-12:
+                        f = -m.seam_stiffness[q] * (length - r) / length * d
+                self.seam_force[2 * q] = f
+                self.seam_force[2 * q + 1] = -f
 
     @ti.func
     def _gathered_force(self, i):
@@ -173,6 +199,9 @@ class SymplecticEulerSolver:
         if ti.static(m.hinge_count > 0):
             for k in range(m.vert_hinge_start[i], m.vert_hinge_start[i + 1]):
                 f += self.hinge_force[m.vert_hinge_slot[k]]
+        if ti.static(m.seam_count > 0):
+            for k in range(m.vert_seam_start[i], m.vert_seam_start[i + 1]):
+                f += self.seam_force[m.vert_seam_slot[k]]
         return f
 
     @ti.func

@@ -1,0 +1,135 @@
+"""Seams as springs (paper §2.4, Fig. 5).
+
+Two seam lines, each made of one or more pattern edges merged into one continuous line,
+are joined by springs:
+
+* **Direction (Fig. 5a).** With P1, P2 the ends of line A and P3, P4 the ends of line B,
+  placed in the world: if L1 + L2 < L3 + L4 (L1 = |P1P3|, L2 = |P2P4|, L3 = |P1P4|,
+  L4 = |P2P3|) then P1 is sewn to P3 and P2 to P4; otherwise B is reversed.
+* **Parametric matching (Fig. 5b).** Both lines are parametrised by arc length on [0, 1].
+  Each point t_i of the line with fewer points is joined to the point s_j of the other
+  line with s_j = t_i by a zero-length spring, or, when s_j < t_i < s_j+1, to s_j and
+  s_j+1 with rest lengths L (t_i − s_j) and L (s_j+1 − t_i), L = (L1 + L2)/2 the mean of
+  the two lines' rest lengths.
+
+Everything here is numpy; the builder turns the springs into Taichi fields.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from sandbox.errors import SandboxError
+
+PARAM_TOL = 1e-6
+
+
+@dataclass
+class SeamLine:
+    """Particle indices along a seam line (in order) and their arc-length parameters."""
+
+    particles: np.ndarray  # (k,) int, global particle indices
+    rest_xy: np.ndarray  # (k, 2) pattern coordinates [m]
+
+    @property
+    def length(self) -> float:
+        return float(np.linalg.norm(np.diff(self.rest_xy, axis=0), axis=1).sum())
+
+    @property
+    def params(self) -> np.ndarray:
+        seg = np.linalg.norm(np.diff(self.rest_xy, axis=0), axis=1)
+        s = np.concatenate([[0.0], np.cumsum(seg)])
+        return s / max(s[-1], 1e-30)
+
+    def reversed(self) -> SeamLine:
+        return SeamLine(self.particles[::-1].copy(), self.rest_xy[::-1].copy())
+
+
+def edge_vertices(uv: np.ndarray, a, b, *, where: str) -> np.ndarray:
+    """Indices of the mesh vertices on the pattern segment a -> b, ordered from a to b."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    d = b - a
+    length = float(np.linalg.norm(d))
+    if length == 0:
+        raise SandboxError(f"{where}: the edge has zero length")
+    rel = uv - a
+    t = rel @ d / length**2
+    off = np.abs(rel[:, 0] * d[1] - rel[:, 1] * d[0]) / length
+    tol = 1e-7 * max(length, 1.0)
+    on = np.nonzero((off <= tol) & (t >= -1e-9) & (t <= 1 + 1e-9))[0]
+    if len(on) < 2:
+        raise SandboxError(f"{where}: fewer than 2 mesh vertices lie on the edge")
+    return on[np.argsort(t[on], kind="stable")]
+
+
+def merge_lines(parts: list[tuple[np.ndarray, np.ndarray]]) -> SeamLine:
+    """Join several (particles, rest_xy) edge lines into one continuous line (§2.4).
+
+    Consecutive edges that share an end particle are joined at it; otherwise they are
+    simply concatenated in the given order (the parameter then jumps by the gap, which the
+    paper's method also implies).
+    """
+    particles, xy = [], []
+    for p, q in parts:
+        if particles and particles[-1][-1] == p[0]:
+            p, q = p[1:], q[1:]
+        particles.append(p)
+        xy.append(q)
+    return SeamLine(np.concatenate(particles), np.concatenate(xy))
+
+
+def seam_direction_same(world_a: np.ndarray, world_b: np.ndarray) -> bool:
+    """Fig. 5(a): True to sew P1-P3 and P2-P4, False to sew P1-P4 and P2-P3.
+
+    ``world_a`` = (P1, P2) and ``world_b`` = (P3, P4), the world positions of the ends.
+    """
+    p1, p2 = world_a
+    p3, p4 = world_b
+    l1, l2 = np.linalg.norm(p1 - p3), np.linalg.norm(p2 - p4)
+    l3, l4 = np.linalg.norm(p1 - p4), np.linalg.norm(p2 - p3)
+    return bool(l1 + l2 < l3 + l4)
+
+
+def match_springs(a: SeamLine, b: SeamLine) -> tuple[np.ndarray, np.ndarray]:
+    """Fig. 5(b): springs between two seam lines already running the same way.
+
+    Returns ``(pairs (s, 2) int, rest_lengths (s,) [m])``.
+    """
+    short, long_ = (a, b) if len(a.particles) <= len(b.particles) else (b, a)
+    t, s = short.params, long_.params
+    mean_len = 0.5 * (a.length + b.length)
+    pairs, rest = [], []
+    for i, ti in enumerate(t):
+        j = int(np.searchsorted(s, ti))
+        if j < len(s) and abs(s[j] - ti) <= PARAM_TOL:
+            pairs.append((short.particles[i], long_.particles[j]))
+            rest.append(0.0)
+        elif j > 0 and j - 1 < len(s) and abs(s[j - 1] - ti) <= PARAM_TOL:
+            pairs.append((short.particles[i], long_.particles[j - 1]))
+            rest.append(0.0)
+        else:
+            j = min(max(j, 1), len(s) - 1)
+            pairs.append((short.particles[i], long_.particles[j - 1]))
+            rest.append(mean_len * (ti - s[j - 1]))
+            pairs.append((short.particles[i], long_.particles[j]))
+            rest.append(mean_len * (s[j] - ti))
+    return np.asarray(pairs, np.int64), np.asarray(rest, np.float64)
+
+
+def sew(a: SeamLine, b: SeamLine, world: np.ndarray, direction: str = "auto"):
+    """Springs for one seam: direction by Fig. 5(a) (or forced), matching by Fig. 5(b).
+
+    ``world`` (n, 3) are the particles' initial (placed) positions. Returns
+    ``(pairs, rest_lengths, reversed_b)``.
+    """
+    if direction == "auto":
+        same = seam_direction_same(
+            world[[a.particles[0], a.particles[-1]]], world[[b.particles[0], b.particles[-1]]]
+        )
+    else:
+        same = direction == "same"
+    bb = b if same else b.reversed()
+    pairs, rest = match_springs(a, bb)
+    return pairs, rest, not same

@@ -1,0 +1,103 @@
+"""Seams as springs (paper §2.4, Fig. 5): direction rule, parametric matching, sewing."""
+
+import numpy as np
+import pytest
+
+from sandbox.errors import SandboxError
+from sandbox.scene.build import build_scene
+from sandbox.scene.run import run_scene
+from sandbox.scene.spec import scene_from_dict
+from sandbox.sim.seams import SeamLine, match_springs, merge_lines, seam_direction_same
+from tests.helpers import sheet_spec
+
+
+def line(ids, ys):
+    return SeamLine(np.asarray(ids), np.stack([np.zeros(len(ys)), np.asarray(ys)], 1))
+
+
+def test_direction_rule_joins_the_closer_ends():
+    p1, p2 = np.array([0.0, 0, 0]), np.array([0.0, 1, 0])
+    assert seam_direction_same((p1, p2), (np.array([0.1, 0, 0]), np.array([0.1, 1, 0])))
+    assert not seam_direction_same((p1, p2), (np.array([0.1, 1, 0]), np.array([0.1, 0, 0])))
+
+
+def test_matching_points_get_zero_length_springs():
+    pairs, rest = match_springs(line([0, 1, 2], [0, 0.5, 1]), line([10, 11, 12], [0, 0.5, 1]))
+    assert pairs.tolist() == [[0, 10], [1, 11], [2, 12]]
+    np.testing.assert_allclose(rest, 0.0)
+
+
+def test_points_between_get_two_springs_with_parametric_rest_lengths():
+    a = line([0, 1, 2], [0.0, 0.5, 1.0])  # shorter side: t = 0, 0.5, 1
+    b = line([10, 11, 12, 13], [0.0, 0.4, 0.8, 1.2])  # s = 0, 1/3, 2/3, 1; length 1.2
+    pairs, rest = match_springs(a, b)
+    L = 0.5 * (1.0 + 1.2)
+    mid = pairs[:, 0] == 1
+    assert sorted(pairs[mid, 1].tolist()) == [11, 12]
+    np.testing.assert_allclose(sorted(rest[mid]), sorted([L * (0.5 - 1 / 3), L * (2 / 3 - 0.5)]))
+    assert rest[~mid].max() == 0.0  # the ends coincide in parameter
+
+
+def test_several_edges_are_merged_into_one_line():
+    a = merge_lines([(np.array([0, 1, 2]), np.array([[0, 0], [0, 1], [0, 2.0]])),
+                     (np.array([2, 3]), np.array([[0, 2.0], [1, 2.0]]))])  # fmt: skip
+    assert a.particles.tolist() == [0, 1, 2, 3] and a.length == pytest.approx(3.0)
+    np.testing.assert_allclose(a.params, [0, 1 / 3, 2 / 3, 1])
+
+
+SEWN = {
+    "scene": {"name": "two_panels"},
+    "simulation": {"gravity_m_s2": [0, 0, 0], "damping_per_s": 5.0},
+    "stop": {"time_limit_s": 3.0},
+    "cloth": [
+        {"name": "left", "size_m": [0.2, 0.3], "edge_length_m": 0.02, "material": "jersey",
+         "origin_m": [-0.25, 0, 0]},
+        {"name": "right", "size_m": [0.2, 0.3], "edge_length_m": 0.015, "material": "jersey",
+         "origin_m": [0.25, 0, 0], "rotation_deg": [0, 180, 0]},
+    ],
+    "seam": [{"name": "middle", "a": [{"cloth": "left", "edge": 1}],
+              "b": [{"cloth": "right", "edge": 1}]}],
+}  # fmt: skip
+
+
+def test_two_panels_are_pulled_together_along_the_seam():
+    sc = build_scene(scene_from_dict(SEWN, source="sewn.toml"))
+    assert sc.model.seam_count > 0
+    r = run_scene(sc, progress=False)
+    x = r.positions
+    assert r.converged
+    assert r.metrics["seam_gap_max_m"] < 3e-3  # from a 10 cm gap
+    assert np.abs(x[:, 2]).max() < 2e-3  # still flat: the panels were not crumpled
+    assert x[:, 0].max() - x[:, 0].min() == pytest.approx(0.4, abs=0.01)
+
+
+def test_reversed_panel_is_sewn_the_right_way_round():
+    data = {**SEWN, "cloth": [dict(c) for c in SEWN["cloth"]]}
+    data["cloth"][1]["rotation_deg"] = [180, 180, 0]  # upside down: its edge 1 runs top-down
+    data["cloth"][1]["origin_m"] = [0.25, 0.3, 0]
+    sc = build_scene(scene_from_dict(data, source="sewn.toml"))
+    x = sc.state.positions()
+    p = sc.model.seam_pairs_np
+    assert np.abs(x[p[:, 0], 1] - x[p[:, 1], 1]).max() < 0.02  # ends joined to the near ends
+
+
+def test_no_seam_fields_without_seams():
+    sc = build_scene(sheet_spec())
+    assert sc.model.seam_count == 0 and sc.model.seam_pairs is None
+    assert (
+        sc.solver.seam_force is None
+        and "seam_gap_max_m"
+        not in run_scene(
+            build_scene(sheet_spec(stop={"time_limit_s": 0.1})), progress=False
+        ).metrics
+    )
+
+
+@pytest.mark.parametrize(
+    "edit, needle",
+    [({"cloth": "middle"}, "no cloth named 'middle'"), ({"cloth": "left", "edge": 9}, "edge")],
+)
+def test_bad_seams_are_named(edit, needle):
+    data = {**SEWN, "seam": [{"a": [edit], "b": [{"cloth": "right", "edge": 1}]}]}
+    with pytest.raises(SandboxError, match=needle):
+        scene_from_dict(data, source="sewn.toml")
