@@ -152,3 +152,27 @@ def test_square_on_an_inclined_plane_sticks_or_slides_with_coulomb_friction(angl
         assert 2 * travelled / t**2 == pytest.approx(expected_a, rel=0.05)
     off_plane = (sc.state.positions() @ n).min()
     assert off_plane > 0.0  # never through the plane
+
+
+def test_mesh_file_collider_and_a_missing_file(tmp_path):
+    import trimesh
+
+    from sandbox.errors import SandboxError
+
+    trimesh.creation.icosphere(subdivisions=3, radius=0.15).export(tmp_path / "ball.ply")
+    data = {
+        "scene": {"name": "mesh_collider"},
+        "stop": {"time_limit_s": 0.6},
+        "cloth": [{"name": "sheet", "size_m": [0.4, 0.4], "edge_length_m": 0.025,
+                   "material": "jersey", "origin_m": [-0.2, 0.2, 0.2],
+                   "rotation_deg": [-90, 0, 0]}],
+        "collider": [{"name": "ball", "shape": "mesh", "path": "ball.ply"}],
+    }  # fmt: skip
+    spec = scene_from_dict(data, source=str(tmp_path / "scene.toml"))
+    sc = build_scene(spec)
+    assert sc.model.colliders[0].closed
+    r = run_scene(sc, progress=False)
+    assert (np.linalg.norm(r.positions, axis=1) < 0.15 * 0.99).sum() == 0
+    data["collider"][0]["path"] = "nothere.obj"
+    with pytest.raises(SandboxError, match="no such file"):
+        scene_from_dict(data, source=str(tmp_path / "scene.toml"))
