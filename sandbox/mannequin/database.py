@@ -1,7 +1,10 @@
-"""Build the size database ``mannequins/sizes.json`` from the Aldrich size table.
+"""Build the size database from the Aldrich size table.
 
-Run ``python -m sandbox.mannequin.database [SOURCE] [OUT]`` (defaults:
-``../shared/data/body_sizes.json`` beside the repository, ``mannequins/sizes.json``).
+Run ``python -m sandbox.mannequin.database [SOURCE] [OUT ...]``. Defaults: the source
+``../shared/data/body_sizes.json`` beside the repository (needed only to regenerate; loading
+the database never reads it) and two identical outputs, the canonical
+``mannequins/sizes.json`` and the copy shipped in the package,
+``sandbox/data/mannequin_sizes.json`` (what :func:`load_size_table` reads).
 
 The table (Aldrich, sizes 6-26, cm) gives bust, waist, hip, back width, shoulder length,
 nape to waist and the extra values the shape rules use, but no across-shoulder width. We
@@ -21,7 +24,13 @@ from pathlib import Path
 
 from sandbox.atomic import write_json
 from sandbox.errors import SandboxError
-from sandbox.mannequin.measurements import KEYS, SIZE_TABLE_PATH, Measurements, SizeEntry
+from sandbox.mannequin.measurements import (
+    KEYS,
+    REPO_SIZE_TABLE_PATH,
+    Measurements,
+    SizeEntry,
+)
+from sandbox.mannequin.model import BASE_SIZE, DEFAULT_RESOLUTION
 from sandbox.mannequin.resize import Corrector, fit_shape
 from sandbox.mannequin.shape import shape_from_size
 from sandbox.mannequin.surface import BodyTemplate
@@ -29,6 +38,8 @@ from sandbox.mannequin.surface import BodyTemplate
 log = logging.getLogger(__name__)
 
 DEFAULT_SOURCE = Path(__file__).resolve().parents[3] / "shared" / "data" / "body_sizes.json"
+PACKAGE_SIZE_TABLE_PATH = Path(__file__).resolve().parents[1] / "data" / "mannequin_sizes.json"
+DEFAULT_OUTPUTS = (REPO_SIZE_TABLE_PATH, PACKAGE_SIZE_TABLE_PATH)
 EXTRA_KEYS = (
     "neck_size",
     "chest",
@@ -76,8 +87,11 @@ def _entry(row: dict, shoulder_width: float) -> SizeEntry:
 def build_database(source: Path = DEFAULT_SOURCE) -> dict:
     """The database as a JSON-ready dict (cm), shoulder widths derived with the tape."""
     rows = _rows(Path(source))
-    base = _entry(rows[len(rows) // 2], 40.0)
-    template = BodyTemplate(shape_from_size(base), 48)
+    # the same mesh as the mannequins (model._structure): base size 14, diagonals checked
+    # on the smallest and largest sizes, default resolution
+    base = _entry(min(rows, key=lambda r: abs(r["size_uk_old_coding"] - BASE_SIZE)), 40.0)
+    extremes = tuple(shape_from_size(_entry(r, 40.0)) for r in (rows[0], rows[-1]))
+    template = BodyTemplate(shape_from_size(base), DEFAULT_RESOLUTION, samples=extremes)
     corrector = Corrector(template, template.landmark_indices())
     sizes = []
     for row in rows:
@@ -111,10 +125,12 @@ def build_database(source: Path = DEFAULT_SOURCE) -> dict:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("source", nargs="?", type=Path, default=DEFAULT_SOURCE)
-    parser.add_argument("out", nargs="?", type=Path, default=SIZE_TABLE_PATH)
+    parser.add_argument("out", nargs="*", type=Path, default=list(DEFAULT_OUTPUTS))
     args = parser.parse_args(argv)
-    write_json(args.out, build_database(args.source))
-    print(f"wrote {args.out}")
+    data = build_database(args.source)
+    for out in args.out:
+        write_json(out, data)
+        print(f"wrote {out}")
     return 0
 
 

@@ -10,6 +10,7 @@ import dataclasses
 import json
 import math
 from functools import lru_cache
+from importlib import resources
 from pathlib import Path
 
 from sandbox.errors import SandboxError
@@ -37,8 +38,12 @@ SUPPORTED_RANGE_CM: dict[str, tuple[float, float]] = {
     "back_length": (37.0, 46.0),
 }
 
-#: The size database (built from ../shared/data/body_sizes.json by ``sandbox.mannequin.database``).
-SIZE_TABLE_PATH = Path(__file__).resolve().parents[2] / "mannequins" / "sizes.json"
+#: The size database shipped in the package (``sandbox/data/mannequin_sizes.json``), loaded
+#: through :mod:`importlib.resources` so a non-editable install finds it.
+SIZE_TABLE_RESOURCE = ("sandbox", "data/mannequin_sizes.json")
+#: The canonical copy in the repository (``mannequins/sizes.json``); both are written by
+#: ``python -m sandbox.mannequin.database`` and kept identical (a test checks).
+REPO_SIZE_TABLE_PATH = Path(__file__).resolve().parents[2] / "mannequins" / "sizes.json"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -143,28 +148,39 @@ class SizeEntry:
 
 
 @lru_cache(maxsize=4)
-def _load_table(path: Path) -> tuple[SizeEntry, ...]:
+def _load_table(path: Path | None) -> tuple[SizeEntry, ...]:
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
+        if path is None:
+            package, name = SIZE_TABLE_RESOURCE
+            where = f"{package}/{name}"
+            text = (resources.files(package) / name).read_text(encoding="utf-8")
+        else:
+            where = str(path)
+            text = path.read_text(encoding="utf-8")
+        data = json.loads(text)
     except (OSError, json.JSONDecodeError) as exc:
-        raise SandboxError(f"{path}: cannot read the size database: {exc}") from exc
+        raise SandboxError(f"{where}: cannot read the size database: {exc}") from exc
     entries = []
     for row in data.get("sizes", []):
         entries.append(
             SizeEntry(
                 size=int(row["size"]),
-                measurements=Measurements.from_dict(row["measurements"], where=f"{path}"),
+                measurements=Measurements.from_dict(row["measurements"], where=where),
                 extra={k: float(v) for k, v in row["extra"].items()},
             )
         )
     if not entries:
-        raise SandboxError(f"{path}: the size database has no sizes")
+        raise SandboxError(f"{where}: the size database has no sizes")
     return tuple(entries)
 
 
 def load_size_table(path: str | Path | None = None) -> tuple[SizeEntry, ...]:
-    """The size database (``mannequins/sizes.json``), smallest size first."""
-    return _load_table(Path(path) if path is not None else SIZE_TABLE_PATH)
+    """The size database, smallest size first.
+
+    Without ``path``, the copy shipped in the package (``sandbox/data/mannequin_sizes.json``,
+    identical to ``mannequins/sizes.json``), found through :mod:`importlib.resources`.
+    """
+    return _load_table(Path(path) if path is not None else None)
 
 
 def size_entry(size: int, table: tuple[SizeEntry, ...] | None = None) -> SizeEntry:

@@ -40,7 +40,8 @@ class _Structure:
 def _structure(resolution: int) -> _Structure:
     table = load_size_table()
     base_entry = min(table, key=lambda e: abs(e.size - BASE_SIZE))
-    template = BodyTemplate(shape_from_size(base_entry), resolution)
+    extremes = (shape_from_size(table[0]), shape_from_size(table[-1]))
+    template = BodyTemplate(shape_from_size(base_entry), resolution, samples=extremes)
     lm = template.landmark_indices()
     return _Structure(template, Corrector(template, lm), lm, template.feature_line_indices())
 

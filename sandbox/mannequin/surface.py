@@ -15,7 +15,14 @@ import numpy as np
 import triangle
 
 from sandbox.mannequin import body
-from sandbox.mannequin.loft import hermite_matrix, key_row_indices, loft, reflect_ghost
+from sandbox.mannequin.loft import (
+    graded_column_matrix,
+    hermite_matrix,
+    key_row_indices,
+    loft,
+    loft_columns,
+    reflect_ghost,
+)
 from sandbox.mannequin.sections import limb_ring
 from sandbox.mannequin.shape import BodyShape
 
@@ -25,6 +32,10 @@ TORSO_STRETCH = 1.2  # row spacing / column spacing, per part
 YOKE_STRETCH = 1.0
 LIMB_STRETCH = 1.6
 BRIDGE_STRETCH = 1.3  # bridge point spacing / torso column spacing
+ARM_SKIP = 1  # arm sections left out: the upper-arm ring cut into the torso at the armpit
+ARM_NORMAL_BLEND = 1.0  # arm start tangent: 0 chord to the first section, 1 loop normal
+ARM_NORMAL_REACH = 2.0  # ghost distance along the loop normal, times the first section's reach
+CORNER_BLEND = (0.0, 0.5, 1.0)  # yoke column continuation weight by distance to an armhole point
 
 
 def _counts(keys: np.ndarray, stretch: float) -> tuple[np.ndarray, np.ndarray]:
@@ -79,15 +90,34 @@ def _cap(ring: np.ndarray, spacing: float) -> tuple[np.ndarray, np.ndarray]:
     return weights, out["triangles"].astype(np.int64)
 
 
-def _grid_quads(grid: np.ndarray, pos: np.ndarray) -> np.ndarray:
-    """Two triangles per quad of a periodic index grid (R, M), shorter diagonal first."""
+def _min_angle(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray) -> np.ndarray:
+    """Smallest angle [rad] of triangles with corners (..., 3) each."""
+    out = []
+    for a, b, c in ((p0, p1, p2), (p1, p2, p0), (p2, p0, p1)):
+        u, w = b - a, c - a
+        cos = (u * w).sum(-1) / (np.linalg.norm(u, axis=-1) * np.linalg.norm(w, axis=-1))
+        out.append(np.arccos(np.clip(cos, -1.0, 1.0)))
+    return np.minimum(np.minimum(out[0], out[1]), out[2])
+
+
+def _grid_quads(grid: np.ndarray, samples: list[np.ndarray]) -> np.ndarray:
+    """Two triangles per quad of a periodic index grid (R, M).
+
+    Each quad is split along the diagonal whose worst triangle over all ``samples``
+    (vertex positions of a few sizes) has the larger smallest angle, so the choice is fixed
+    per topology and good for every size.
+    """
     a = grid[:-1]
     b = np.roll(grid, -1, axis=1)[:-1]
     c = np.roll(grid, -1, axis=1)[1:]
     d = grid[1:]
-    ac = np.linalg.norm(pos[a] - pos[c], axis=-1)
-    bd = np.linalg.norm(pos[b] - pos[d], axis=-1)
-    use_ac = (ac <= bd)[..., None]
+    q_ac = np.full(a.shape, np.inf)
+    q_bd = np.full(a.shape, np.inf)
+    for pos in samples:
+        pa, pb, pc, pd = pos[a], pos[b], pos[c], pos[d]
+        q_ac = np.minimum(q_ac, np.minimum(_min_angle(pa, pb, pc), _min_angle(pa, pc, pd)))
+        q_bd = np.minimum(q_bd, np.minimum(_min_angle(pa, pb, pd), _min_angle(pb, pc, pd)))
+    use_ac = (q_ac >= q_bd)[..., None]
     t1 = np.where(use_ac, np.stack([a, b, c], -1), np.stack([a, b, d], -1))
     t2 = np.where(use_ac, np.stack([a, c, d], -1), np.stack([b, c, d], -1))
     return np.concatenate([t1.reshape(-1, 3), t2.reshape(-1, 3)])
@@ -105,12 +135,13 @@ def _outward(tris: np.ndarray, pos: np.ndarray, inside: np.ndarray) -> np.ndarra
 class BodyTemplate:
     """Topology and fixed linear maps of the body mesh at one resolution.
 
-    ``n_columns`` is the torso column count (multiple of 16); the default 64 gives about
-    25k triangles. Built from ``base`` (a database size); any other shape is evaluated on
-    the same topology.
+    ``n_columns`` is the torso column count (multiple of 16): 48 gives about 18k triangles,
+    64 about 31k. Built from ``base`` (a database size); any other shape is evaluated on
+    the same topology. ``samples`` (other sizes) only take part in choosing the quad
+    diagonals, so that the fixed choice suits them too.
     """
 
-    def __init__(self, base: BodyShape, n_columns: int = 64):
+    def __init__(self, base: BodyShape, n_columns: int = 64, samples: tuple[BodyShape, ...] = ()):
         self.cols = cols = body.Columns(n_columns)
         n = cols.n
         rings = body.torso_key_rings(base, cols)
@@ -183,6 +214,12 @@ class BodyTemplate:
                 np.arange(my - (n - sr - h), my),
             ]
         )
+        # torso columns next to the armhole points leave the loop towards the neck (a
+        # corner of the yoke), the others continue the torso column (C1 junction)
+        corners = np.array([sl - h, sl - h + 1 + ka])
+        corners = np.concatenate([corners, my - corners])
+        gap = np.abs(self.yoke_torso_pos[:, None] - corners[None]).min(axis=1)
+        self.yoke_continuation = np.interp(gap, np.arange(len(CORNER_BLEND)), CORNER_BLEND)
         j_spl = sl - h + 1 + self.bridge_shoulder
         j_cb = int(np.nonzero(self.yoke_loop == top[cols.back])[0][0])
         j_spr = int(np.nonzero(self.yoke_loop == self.bridge_r_idx[self.bridge_shoulder])[0][0])
@@ -220,19 +257,18 @@ class BodyTemplate:
         )
 
         keys_y = self._yoke_keys(base, loop_yoke, torso_rows)
-        self.yoke_counts, ty = _counts(keys_y[1:-1], YOKE_STRETCH)
-        self.h_yoke = hermite_matrix(ty, self.yoke_counts)
-        self.yoke_key_rows = key_row_indices(self.yoke_counts)
+        _, ty = _counts(keys_y[1:-1], YOKE_STRETCH)
+        self.h_yoke, self.yoke_key_rows = graded_column_matrix(ty, keys_y, (0, 1, 2), YOKE_STRETCH)
         keys_a = self._arm_keys(base, loop_arm, keys_t)
-        self.arm_counts, ta = _counts(keys_a[1:-1], LIMB_STRETCH)
-        self.h_arm = hermite_matrix(ta, self.arm_counts)
+        _, ta = _counts(keys_a[1:-1], LIMB_STRETCH)
+        self.h_arm, _ = graded_column_matrix(ta, keys_a, (0, len(ta) - 1), LIMB_STRETCH)
         keys_l = self._leg_keys(base, rings["hip"], loop_leg)
-        self.leg_counts, tl = _counts(keys_l[1:-1], LIMB_STRETCH)
-        self.h_leg = hermite_matrix(tl, self.leg_counts)
+        _, tl = _counts(keys_l[1:-1], LIMB_STRETCH)
+        self.h_leg, _ = graded_column_matrix(tl, keys_l, (0, len(tl) - 1), LIMB_STRETCH)
 
-        ry = len(self.h_yoke)
-        ra = len(self.h_arm)
-        rl = len(self.h_leg)
+        ry = self.h_yoke.shape[1]
+        ra = self.h_arm.shape[1]
+        rl = self.h_leg.shape[1]
         self.yoke_grid = np.vstack([self.yoke_loop, block((ry - 1) * my).reshape(ry - 1, my)])
         ma, ml = len(self.arm_l_loop), len(self.leg_l_loop)
         self.arm_l_grid = np.vstack([self.arm_l_loop, block((ra - 1) * ma).reshape(ra - 1, ma)])
@@ -245,6 +281,12 @@ class BodyTemplate:
         pos = np.zeros((nv, 3))
         self._vtmp = pos
         self._evaluate_core(base)
+        sample_pos = [pos]
+        for other in samples:
+            self._vtmp = np.zeros((nv, 3))
+            self._evaluate_core(other)
+            sample_pos.append(self._vtmp)
+        self._vtmp = pos
         grids = (
             self.torso_idx,
             self.yoke_grid,
@@ -255,7 +297,7 @@ class BodyTemplate:
         )
         faces = []
         for grid in grids:
-            tris = _grid_quads(grid, pos)
+            tris = _grid_quads(grid, sample_pos)
             row_centre = pos[grid].mean(axis=1)
             ref = np.repeat(row_centre[:-1], grid.shape[1], axis=0)
             faces.append(_outward(tris, pos, np.concatenate([ref, ref])))
@@ -319,20 +361,33 @@ class BodyTemplate:
         here = torso_rows[-1][self.yoke_torso_cols]
         dist = np.linalg.norm(base[self.yoke_torso_pos] - here, axis=1)
         step = np.linalg.norm(here - below, axis=1)
-        ghost_lo[self.yoke_torso_pos] = here + (below - here) * (dist / step)[:, None]
+        cont = here + (below - here) * (dist / step)[:, None]
+        w = self.yoke_continuation[:, None]
+        ghost_lo[self.yoke_torso_pos] = w * cont + (1 - w) * ghost_lo[self.yoke_torso_pos]
         ghost_hi = reflect_ghost(top, base)
         return np.stack([ghost_lo, loop, base, top, ghost_hi])
 
     def _arm_keys(self, s: BodyShape, loop: np.ndarray, keys_t: np.ndarray) -> np.ndarray:
         arm = body.arm_frames(s, loop, self._half_width_fn(keys_t))
         rows = [loop]
-        for (c, _n, u, v), g, w in zip(arm["frames"], arm["girths"], ARM_ANGLE_BLEND, strict=True):
+        for k, ((c, _n, u, v), g, w) in enumerate(
+            zip(arm["frames"], arm["girths"], ARM_ANGLE_BLEND, strict=True)
+        ):
+            if k < ARM_SKIP:
+                continue
             ang = body.blended_angles(self.arm_loop_angles, w)
             rows.append(limb_ring(c, u, v, ang, g, 1.05))
         rows = np.stack(rows)
-        return np.concatenate(
-            [reflect_ghost(rows[0], rows[1])[None], rows, reflect_ghost(rows[-1], rows[-2])[None]]
+        # the arm leaves the armhole across it (along the loop plane's normal), not along
+        # the chord to the first section, which runs nearly parallel to the front and back
+        # of the armhole
+        n0 = np.cross(arm["u0"], arm["v0"])
+        reach = np.linalg.norm(rows[1] - rows[0], axis=1, keepdims=True)
+        chord = reflect_ghost(rows[0], rows[1])
+        ghost = (1 - ARM_NORMAL_BLEND) * chord + ARM_NORMAL_BLEND * (
+            rows[0] - ARM_NORMAL_REACH * reach * n0
         )
+        return np.concatenate([ghost[None], rows, reflect_ghost(rows[-1], rows[-2])[None]])
 
     def _leg_keys(self, s: BodyShape, hip_ring: np.ndarray, loop: np.ndarray) -> np.ndarray:
         centres, girths, aspects = body.leg_sections(s, hip_ring, loop)
@@ -356,13 +411,13 @@ class BodyTemplate:
         self._fill_bridges(s, rings)
         mirror = np.array([-1.0, 1.0, 1.0])
         ky = self._yoke_keys(s, v[self.yoke_loop], torso_rows)
-        v[self.yoke_grid[1:]] = loft(self.h_yoke, ky)[1:]
+        v[self.yoke_grid[1:]] = loft_columns(self.h_yoke, ky)[1:]
         ka = self._arm_keys(s, v[self.arm_l_loop], keys_t)
-        arm = loft(self.h_arm, ka)[1:]
+        arm = loft_columns(self.h_arm, ka)[1:]
         v[self.arm_l_grid[1:]] = arm
         v[self.arm_r_grid[1:]] = arm * mirror
         kl = self._leg_keys(s, rings["hip"], v[self.leg_l_loop])
-        leg = loft(self.h_leg, kl)[1:]
+        leg = loft_columns(self.h_leg, kl)[1:]
         v[self.leg_l_grid[1:]] = leg
         v[self.leg_r_grid[1:]] = leg * mirror
         return {"rings": rings, "keys_t": keys_t}
@@ -378,7 +433,7 @@ class BodyTemplate:
             v[self.torso_idx] = torso_rows
             self._fill_bridges(s, rings)
             ky = self._yoke_keys(s, v[self.yoke_loop], torso_rows)
-            v[self.yoke_grid[1:]] = loft(self.h_yoke, ky)[1:]
+            v[self.yoke_grid[1:]] = loft_columns(self.h_yoke, ky)[1:]
         finally:
             self._vtmp = None
         return v
@@ -392,7 +447,7 @@ class BodyTemplate:
         loop[self.yoke_torso_pos] = torso_rows[-1][self.yoke_torso_cols]
         ky = self._yoke_keys(s, loop, torso_rows)
         j_cb = self.yoke_anchor[1]
-        yoke_col = loft(self.h_yoke, ky[:, [j_cb]])[:, 0]
+        yoke_col = loft_columns(self.h_yoke[[j_cb]], ky[:, [j_cb]])[:, 0]
         waist_row = self.torso_key_rows[body.TORSO_RINGS.index("waist")]
         torso_col = torso_rows[waist_row:, self.cols.back]
         return np.concatenate([torso_col, yoke_col[1 : self.yoke_key_rows[1] + 1]])

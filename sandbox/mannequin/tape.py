@@ -167,8 +167,22 @@ def hull_chain_length(arc2: np.ndarray, outward: np.ndarray) -> float:
     chain1 = [hv[(a + k) % n] for k in range((b - a) % n + 1)]
     chain2 = [hv[(b + k) % n] for k in range((a - b) % n + 1)]
 
-    def score(chain):
-        return float(np.mean(arc2[chain] @ outward))
+    # the chains lie on either side of the chord: take the one bulging to ``outward``
+    # (a chain that is just the chord scores 0; the mean over all vertices is not robust
+    # when the outer chain's vertices crowd at its low end)
+    chord = arc2[ends[1]] - arc2[ends[0]]
+    normal = np.array([-chord[1], chord[0]])
+    side = float(normal @ outward)
+    if abs(side) > 0.1 * np.linalg.norm(normal) * np.linalg.norm(outward):
+        normal *= np.sign(side)
+
+        def score(chain):
+            inner = chain[1:-1]
+            return float(np.max((arc2[inner] - arc2[ends[0]]) @ normal)) if inner else 0.0
+    else:
+
+        def score(chain):
+            return float(np.mean(arc2[chain] @ outward))
 
     chain = chain1 if score(chain1) >= score(chain2) else chain2
     p = arc2[chain]
