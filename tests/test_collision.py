@@ -34,6 +34,8 @@ def test_sheet_dropped_on_a_sphere_stays_outside():
     assert np.isfinite(r.positions).all()
     assert (radius < 0.2).sum() == 0  # no vertex inside the (tessellated) sphere
     assert radius.min() > 0.2 - 1e-3
+    assert r.metrics["vertices_inside_body"] == 0 and r.metrics["penetration_max_m"] == 0.0
+    assert isinstance(r.metrics["intersecting_triangle_pairs"], int)
     top = r.positions[np.argmin(np.linalg.norm(r.positions[:, [0, 2]], axis=1))]
     assert 0.2 < top[1] < 0.2 + 0.01  # the sheet rests on the sphere, not above or in it
 

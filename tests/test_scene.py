@@ -162,6 +162,8 @@ def test_cli_run_writes_mesh_with_uvs_image_and_metrics(tmp_path):
     ):
         assert key in metrics, key  # fmt: skip
     assert metrics["steps"] > 0 and metrics["vertex_count"] > 10
+    assert metrics["intersecting_triangle_pairs"] == 0  # a small hanging sheet
+    assert metrics["penetration_max_m"] is None  # nothing to be inside of
     obj = (out / "mesh.obj").read_text()
     assert obj.count("\nvt ") + obj.startswith("vt ") == metrics["vertex_count"]
     assert (out / "mesh.ply").stat().st_size > 0

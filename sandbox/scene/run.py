@@ -109,12 +109,44 @@ def run_scene(
         "stop_mean_displacement_m": stop.mean_displacement_m,
         "vertex_steps_per_s": model.particle_count * steps / wall if wall > 0 else None,
     }
+    x_final = scene.state.positions()
     if model.seam_count:
         metrics["seam_count"] = model.seam_count
-        metrics["seam_gap_max_m"] = seam_gap_max(model, scene.state.positions())
+        metrics["seam_gap_max_m"] = seam_gap_max(model, x_final)
+    metrics.update(contact_metrics(model, x_final))
     log.info("%s: %s after %d steps (%.2f s simulated, %.2f s wall)", spec.name, reason,
              steps, steps * scene.dt_s, wall)  # fmt: skip
     return RunResult(converged, reason, metrics, scene.state.positions())
+
+
+def contact_metrics(model, x: np.ndarray) -> dict:
+    """Contact measures independent of the solver's own detection (issue 4).
+
+    ``penetration_max_m`` and ``vertices_inside_body`` over the closed colliders (None
+    without one), and ``intersecting_triangle_pairs`` of the cloth by an exact
+    triangle-triangle test (pairs sharing a vertex or joined by a seam excluded).
+    """
+    from sandbox.collision.metrics import (
+        body_inside_check,
+        count_intersecting_pairs,
+        penetration_metrics,
+    )
+
+    out = {"penetration_max_m": None, "vertices_inside_body": None}
+    closed = [c for c in model.colliders if c.closed]
+    if closed:
+        depth, inside = 0.0, 0
+        for c in closed:
+            probe = body_inside_check(c.body_x.to_numpy().astype(np.float64), c.triangles_np,
+                                      name=c.name)  # fmt: skip
+            m = penetration_metrics(x, probe)
+            depth = max(depth, m["penetration_max_m"])
+            inside += m["vertices_inside_body"]
+        out.update(penetration_max_m=depth, vertices_inside_body=inside)
+    out["intersecting_triangle_pairs"] = count_intersecting_pairs(
+        x, model.tri_indices_np, exclude_vertex_pairs=model.seam_pairs_np
+    )
+    return out
 
 
 def seam_gap_max(model, x: np.ndarray) -> float:
