@@ -69,6 +69,9 @@ class BodyCollider:
         self.body_x = ti.Vector.field(3, float, shape=len(v))
         self.tri = ti.Vector.field(3, ti.i32, shape=len(t))
         self.tri_normal = ti.Vector.field(3, float, shape=len(t))  # unit, outward
+        self.tri_offset = ti.field(float, shape=len(t))  # n·a: plane n·x = offset
+        self.tri_centre = ti.Vector.field(3, float, shape=len(t))  # bounding sphere
+        self.tri_radius = ti.field(float, shape=len(t))
         self.tri.from_numpy(t.astype(np.int32))
         self.thickness = ti.field(float, shape=())
         self.mu_s = ti.field(float, shape=())
@@ -131,6 +134,10 @@ class BodyCollider:
             )
             n = (b - a).cross(c - a)
             self.tri_normal[t] = n / ti.max(n.norm(), 1e-30)
+            self.tri_offset[t] = self.tri_normal[t].dot(a)
+            g = (a + b + c) / 3.0
+            self.tri_centre[t] = g
+            self.tri_radius[t] = ti.max((a - g).norm(), (b - g).norm(), (c - g).norm())
         for c in self.cell_fill:
             self.cell_fill[c] = 0
         pad = self.thickness[None]
@@ -188,13 +195,13 @@ class BodyCollider:
                 cid = self._cell_index(ti.Vector([i, j, k]))
                 for e in range(self.cell_start[cid], self.cell_start[cid + 1]):
                     t = self.cell_entries[e]
-                    a = self.body_x[self.tri[t][0]]
                     n = self.tri_normal[t]
-                    s0 = (x - a).dot(n)
-                    s1 = (x1 - a).dot(n)
+                    s0 = n.dot(x) - self.tri_offset[t]
+                    s1 = n.dot(x1) - self.tri_offset[t]
                     # a crossing needs the two ends on opposite sides of the plane, and
                     # proximity needs the predicted position within h of the plane
                     if s0 * s1 <= 0.0 or ti.abs(s1) <= h:
+                        a = self.body_x[self.tri[t][0]]
                         b = self.body_x[self.tri[t][1]]
                         c = self.body_x[self.tri[t][2]]
                         if s0 * s1 <= 0.0:
@@ -205,7 +212,9 @@ class BodyCollider:
                                 if ti.static(not self.closed):
                                     if s0 < 0.0:
                                         best_n = -n
-                        if ti.abs(s1) <= h or s0 * s1 <= 0.0:
+                        reach = self.tri_radius[t] + h
+                        near = (x1 - self.tri_centre[t]).norm_sqr() <= reach * reach
+                        if near or s0 * s1 <= 0.0:
                             q = closest_point_on_triangle(x1, a, b, c)
                             d = (x1 - q).norm()
                             if d < best_d:
