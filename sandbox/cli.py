@@ -8,7 +8,6 @@ traceback, and exit with status 2.
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import sys
 from importlib import resources
@@ -152,7 +151,3 @@ def main(argv: list[str] | None = None) -> int:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
     return 0
-
-
-def dump_json_line(obj) -> None:
-    print(json.dumps(obj), flush=True)
