@@ -110,7 +110,7 @@ def stable_dt_estimate(model: Model) -> float:
     """
     n = model.particle_count
     tris = model.tri_indices_np
-    rinv = model.tri_rest_inv.to_numpy()[: model.tri_count]
+    rinv = model.tri_rest_inv_np
     # |∇N_i|² summed over the triangle's vertices, from the rest-shape coefficients
     cu = np.stack([-(rinv[:, 0, 0] + rinv[:, 1, 0]), rinv[:, 0, 0], rinv[:, 1, 0]], 1)
     cv = np.stack([-(rinv[:, 0, 1] + rinv[:, 1, 1]), rinv[:, 0, 1], rinv[:, 1, 1]], 1)

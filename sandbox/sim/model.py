@@ -92,6 +92,7 @@ class Model:
         self.pinned_np = pinned
         self.tri_indices_np = tri_indices
         self.tri_rest_area_np = tri_rest_area
+        self.tri_rest_inv_np = tri_rest_inv
         self.tri_stiffness_np = tri_stiffness
         self.hinge_indices_np = hinge_indices
         self.hinge_stiffness_np = hinge_stiffness
