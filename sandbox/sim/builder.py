@@ -34,15 +34,20 @@ class ModelBuilder:
                  where: str = "seam") -> None:  # fmt: skip
         """Sew two seam lines (paper §2.4).
 
-        ``side_a`` and ``side_b`` are lists of ``(piece index, (u0, v0), (u1, v1))``: pattern
-        edges of the pieces, in order; several edges on one side are merged into one line.
+        ``side_a`` and ``side_b`` are lists of pattern edges, in order; several edges on one
+        side are merged into one line. Each edge is either ``(piece index, (u0, v0), (u1,
+        v1))``, a straight segment of the piece's pattern, or ``(piece index, indices)``, the
+        piece's local vertex indices along the edge in order (curved edges).
         ``direction`` is "auto" (Fig. 5a), "same" or "reverse". ``stiffness_N_m`` per spring
         defaults to m (2π/SEAM_CLOSE_TIME_S)² with m the mean mass of the sewn particles.
         """
         if direction not in ("auto", "same", "reverse"):
             raise SandboxError(f"{where}: direction must be auto, same or reverse")
         for side in (side_a, side_b):
-            for piece, _, _ in side:
+            for entry in side:
+                piece = entry[0]
+                if len(entry) not in (2, 3):
+                    raise SandboxError(f"{where}: an edge is (piece, a, b) or (piece, indices)")
                 if not 0 <= piece < len(self._pieces):
                     raise SandboxError(f"{where}: no cloth piece number {piece}")
         self._seams.append(dict(a=side_a, b=side_b, direction=direction, k=stiffness_N_m,
@@ -60,6 +65,7 @@ class ModelBuilder:
         grain_rad: float = 0.0,
         pinned: np.ndarray | None = None,
         velocity=(0.0, 0.0, 0.0),
+        positions: np.ndarray | None = None,
         where: str | None = None,
         meta: dict | None = None,
     ) -> int:
@@ -73,6 +79,8 @@ class ModelBuilder:
             grain_rad: angle of the warp (u axis) from the pattern's x axis [rad].
             pinned: (n,) bool, particles that never move.
             velocity: initial velocity [m/s].
+            positions: (n, 3) initial world positions [m] (for example a panel bent around
+                the body); when given, ``rotation`` and ``translation`` are ignored.
         Returns the index of the piece.
         """
         where = where or name
@@ -88,6 +96,11 @@ class ModelBuilder:
             raise SandboxError(f"{where}: pattern coordinates contain NaN or infinity")
         rot = np.eye(3) if rotation is None else np.asarray(rotation, dtype=np.float64)
         pins = np.zeros(len(uv), bool) if pinned is None else np.asarray(pinned, bool)
+        pos = None
+        if positions is not None:
+            pos = np.asarray(positions, dtype=np.float64)
+            if pos.shape != (len(uv), 3) or not np.all(np.isfinite(pos)):
+                raise SandboxError(f"{where}: positions must be finite with shape (n, 3)")
         self._pieces.append(
             dict(
                 name=name,
@@ -100,6 +113,7 @@ class ModelBuilder:
                 grain=float(grain_rad),
                 pins=pins,
                 vel=np.asarray(velocity, dtype=np.float64),
+                pos=pos,
                 meta=meta or {},
             )
         )
@@ -140,7 +154,7 @@ class ModelBuilder:
             np.add.at(mass, tris.ravel(), np.repeat(mat.density_kg_m2 * area / 3.0, 3))
             if np.any(mass <= 0):
                 raise SandboxError(f"{pc['where']}: a vertex belongs to no triangle")
-            world = uv @ pc["rot"][:, :2].T + pc["t"]
+            world = pc["pos"] if pc["pos"] is not None else uv @ pc["rot"][:, :2].T + pc["t"]
             xs.append(world)
             vs.append(np.tile(pc["vel"], (n, 1)))
             uvs.append(uv)
@@ -212,9 +226,16 @@ class ModelBuilder:
             lines = []
             for side in (sm["a"], sm["b"]):
                 parts = []
-                for k, (piece, a, b) in enumerate(side):
+                for k, entry in enumerate(side):
+                    piece = entry[0]
                     uv = self._pieces[piece]["uv"]
-                    idx = edge_vertices(uv, a, b, where=f"{sm['where']}: edge {k}")
+                    at = f"{sm['where']}: edge {k}"
+                    if len(entry) == 3:
+                        idx = edge_vertices(uv, entry[1], entry[2], where=at)
+                    else:
+                        idx = np.asarray(entry[1], dtype=np.int64)
+                        if idx.ndim != 1 or len(idx) < 2 or idx.min() < 0 or idx.max() >= len(uv):
+                            raise SandboxError(f"{at}: needs 2 or more valid vertex indices")
                     parts.append((idx + starts[piece], uv[idx]))
                 lines.append(merge_lines(parts))
             p, r, _ = sew(lines[0], lines[1], world, sm["direction"])
