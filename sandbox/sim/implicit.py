@@ -1,0 +1,548 @@
+"""Implicit (backward) Euler for stiff cloth, solved by Newton with Jacobi-preconditioned CG.
+
+Each step of ``h`` [s] minimises the incremental potential (Baraff and Witkin 1998 in its
+optimisation form, e.g. Martin et al. 2011; Gast et al. 2015)
+
+    E(x) = Σ_i m_i/(2h²) |x_i − x̂_i|² + Σ_i γ m_i/(2h) |x_i − x_n,i|² + U(x),
+    x̂ = x_n + h v_n + h² g,
+
+where U is the same energy as the explicit solver (Eq. 7 membrane, bending, seams) and γ is
+``control.damping_per_s`` (the explicit solver's −γ m v force, taken at v_n+1; γ = 0 leaves
+backward Euler's own numerical damping only). ∇E = 0 is exactly backward Euler:
+m (x − x̂)/h² = F(x) − γ m v_n+1, with v_n+1 = (x − x_n)/h.
+
+Newton: at iterate x solve (M(1/h² + γ/h) + H) Δx = −∇E by conjugate gradients with a 3x3
+block-Jacobi preconditioner, to a relative residual ``cg_tol``; H is the per-element
+positive semi-definite Hessian of :mod:`sandbox.sim.hessians`, so the system is SPD. A
+backtracking line search on E makes every Newton step decrease the energy (Armijo). The
+iteration stops when the Newton step is small: max_i |Δx_i| / h <= ``tol_m_s`` (a velocity
+tolerance [m/s]; at h = 1/60 s the default 1e-4 m/s is 1.7 µm). A step that reaches
+``max_newton`` iterations first is counted as unconverged in :meth:`stats` (never silently).
+
+Contact: after the solve, v_n+1 = (x − x_n)/h is revised by each collider's ``respond`` and
+x_n+1 = x_n + h v_n+1, as the explicit solver does after its velocity update.
+
+The matrix is never assembled: per element the solver keeps the small Hessian (the 6x6
+membrane Hessian in F = [F_u, F_v] as three 3x3 blocks, the bending gradient and scale,
+the seam 3x3 block) and the product is gathered per vertex through the model's incidence
+lists, as the explicit solver gathers forces (no atomics, deterministic sums). One CG
+iteration is one kernel launch.
+"""
+
+import math
+import time
+
+import taichi as ti
+
+from sandbox.sim import forces, hessians
+from sandbox.sim.model import Control, Model, State  # noqa: F401 (used in annotations)
+
+NO_STEP = 2**31 - 1
+ARMIJO = 1e-4
+
+
+@ti.data_oriented
+class ImplicitEulerSolver:
+    """Backward Euler with Newton-PCG; same public interface as SymplecticEulerSolver.
+
+    Args:
+        model: the cloth model.
+        tol_m_s: Newton stops when max |Δx|/h of a Newton step is below this [m/s].
+        cg_tol: CG stops when |r| <= cg_tol |r_0| (2-norm of the force residual).
+        max_newton: Newton iterations per step before the step is flagged unconverged.
+        max_cg: CG iterations per Newton iteration.
+    """
+
+    def __init__(
+        self,
+        model: Model,
+        *,
+        tol_m_s: float = 1e-4,
+        cg_tol: float = 1e-3,
+        max_newton: int = 30,
+        max_cg: int = 2000,
+    ):
+        self.model = model
+        self.tol_m_s = float(tol_m_s)
+        self.cg_tol = float(cg_tol)
+        self.max_newton = int(max_newton)
+        self.max_cg = int(max_cg)
+        n = max(1, model.particle_count)
+        m = max(1, model.tri_count)
+        vec = lambda k: ti.Vector.field(3, float, shape=k)  # noqa: E731
+        mat = lambda k: ti.Matrix.field(3, 3, float, shape=k)  # noqa: E731
+        self.x0, self.xh, self.x, self.xt = vec(n), vec(n), vec(n), vec(n)
+        self.grad, self.dx, self.r, self.z, self.p, self.ap = (vec(n) for _ in range(6))
+        self.pinv = mat(n)
+        self.t_gu, self.t_gv, self.t_zu, self.t_zv = vec(m), vec(m), vec(m), vec(m)
+        self.t_huu, self.t_huv, self.t_hvv = mat(m), mat(m), mat(m)
+        self.h_grad = self.h_k = self.h_s = self.h_z = None
+        if model.hinge_count:
+            nh = model.hinge_count
+            self.h_grad = vec(4 * nh)
+            self.h_k = ti.field(float, shape=nh)
+            self.h_s = ti.field(float, shape=nh)
+            self.h_z = ti.field(float, shape=nh)
+        self.s_grad = self.s_hess = self.s_z = None
+        if model.seam_count:
+            ns = model.seam_count
+            self.s_grad, self.s_hess, self.s_z = vec(ns), mat(ns), vec(ns)
+        # live scalars (0-D fields: no recompilation when they change)
+        self.h = ti.field(float, shape=())
+        self.gamma = ti.field(float, shape=())
+        self.energy = ti.field(ti.f64, shape=())
+        self.energy_t = ti.field(ti.f64, shape=())
+        self.rz = ti.field(ti.f64, shape=())
+        self.rz_new = ti.field(ti.f64, shape=())
+        self.pap = ti.field(ti.f64, shape=())
+        self.rr = ti.field(ti.f64, shape=())
+        self.slope = ti.field(ti.f64, shape=())
+        self.alpha = ti.field(float, shape=())
+        self.beta = ti.field(float, shape=())
+        self.max_dx = ti.field(float, shape=())
+        self.max_res = ti.field(float, shape=())
+        self.bad_step = ti.field(ti.i32, shape=())
+        self.bad_vertex = ti.field(ti.i32, shape=())
+        self.reset_watch()
+        self.reset_stats()
+        self.last: dict = {}
+
+    # ------------------------------------------------------------------ public API
+    def step(self, state_in: State, state_out: State, control: Control, dt: float, index=0):
+        """Advance one backward Euler step of ``dt`` [s] from ``state_in`` into ``state_out``.
+
+        ``state_out`` may be ``state_in``. ``dt <= 0`` copies the state (and compiles the
+        kernels, as ``run_scene``'s warm-up expects).
+        """
+        if dt <= 0.0:
+            self._warm_up(state_in, control)
+            if state_out is not state_in:
+                self._copy(state_in.x, state_in.v, state_out.x, state_out.v)
+            return
+        t0 = time.perf_counter()
+        self.h[None] = dt
+        self.gamma[None] = control.damping_per_s[None]
+        self._begin(state_in.x, state_in.v, control.gravity)
+        self._initial_guess()
+        newton = cg_total = 0
+        converged = False
+        step_norm = math.inf
+        line_search_cuts = 0
+        for _ in range(self.max_newton):
+            self._grad_hess()
+            newton += 1
+            cg_total += self._solve()
+            self._post_solve()
+            step_norm = float(self.max_dx[None])
+            if step_norm <= self.tol_m_s * dt:
+                self._trial(1.0)
+                self._accept()
+                converged = True
+                break
+            line_search_cuts += self._line_search()
+        self._grad_hess()  # residual at the accepted point, for the stats
+        res = float(self.max_res[None])
+        self._finish(state_out.x, state_out.v, index)
+        self.last = {
+            "newton_iterations": newton,
+            "cg_iterations": cg_total,
+            "final_step_m": step_norm,
+            "final_step_m_s": step_norm / dt,
+            "residual_force_over_weight": res,
+            "line_search_halvings": line_search_cuts,
+            "converged": converged,
+            "wall_s": time.perf_counter() - t0,
+        }
+        t = self.totals
+        t["steps"] += 1
+        t["newton_iterations"] += newton
+        t["cg_iterations"] += cg_total
+        t["unconverged_steps"] += 0 if converged else 1
+        t["max_newton_iterations"] = max(t["max_newton_iterations"], newton)
+        t["max_final_step_m_s"] = max(t["max_final_step_m_s"], step_norm / dt)
+        t["max_residual_force_over_weight"] = max(t["max_residual_force_over_weight"], res)
+
+    def advance(self, state: State, control: Control, dt: float, steps: int, first_index=0):
+        """Advance ``state`` in place by ``steps`` steps of ``dt`` [s]."""
+        for k in range(steps):
+            self.step(state, state, control, dt, first_index + k)
+
+    def reset_watch(self) -> None:
+        self.bad_step[None] = NO_STEP
+        self.bad_vertex[None] = NO_STEP
+
+    def first_bad(self) -> tuple[int, int] | None:
+        """(step, vertex) of the first non-finite position since the last reset, or None."""
+        s = int(self.bad_step[None])
+        return None if s == NO_STEP else (s, int(self.bad_vertex[None]))
+
+    def reset_stats(self) -> None:
+        self.totals = {
+            "steps": 0,
+            "newton_iterations": 0,
+            "cg_iterations": 0,
+            "unconverged_steps": 0,
+            "max_newton_iterations": 0,
+            "max_final_step_m_s": 0.0,
+            "max_residual_force_over_weight": 0.0,
+        }
+
+    def stats(self) -> dict:
+        """Totals since the last :meth:`reset_stats` and the last step's figures (``last``).
+
+        Per step: Newton iterations, CG iterations (summed over Newton), the last Newton
+        step max|Δx| [m] and over h [m/s], the largest force residual of backward Euler at
+        the accepted point over the vertex weight |∇E_i|/(m_i·9.80665), line-search
+        halvings, converged (Newton step below ``tol_m_s``).
+        """
+        return {**self.totals, "tol_m_s": self.tol_m_s, "cg_tol": self.cg_tol,
+                "last": dict(self.last)}  # fmt: skip
+
+    def internal_energy(self, state: State) -> float:
+        """U = Σ (U_u + U_v + U_s) + Σ U_b + Σ U_seam of Eq. 7 [J]."""
+        self.energy_t[None] = 0.0
+        self._internal_energy_kernel(state.x)
+        return float(self.energy_t[None])
+
+    # ------------------------------------------------------------------ Newton pieces
+    def _solve(self) -> int:
+        """CG on (M c + H) Δx = −∇E; returns the iterations used."""
+        self._cg_init()
+        rr0 = float(self.rr[None])
+        if rr0 <= 0.0:
+            return 0
+        target = self.cg_tol * self.cg_tol * rr0
+        for k in range(1, self.max_cg + 1):
+            self._cg_iter()
+            if float(self.rr[None]) <= target:
+                return k
+        return self.max_cg
+
+    def _line_search(self) -> int:
+        """Backtracking on E along Δx (Armijo); returns the number of halvings."""
+        e0 = float(self.energy[None])
+        slope = float(self.slope[None])
+        alpha, cuts = 1.0, 0
+        # round-off allowance: E is summed in float64 from positions in the default float
+        eps = 1e-12 * abs(e0) if _is_f64() else 1e-6 * abs(e0)
+        while True:
+            self._trial(alpha)
+            if float(self.energy_t[None]) <= e0 + ARMIJO * alpha * slope + eps or cuts >= 30:
+                break
+            alpha *= 0.5
+            cuts += 1
+        self._accept()
+        return cuts
+
+    def _initial_guess(self) -> None:
+        """Start from x̂ = x_n + h v_n + h² g or from x_n + h v_n, whichever has the lower E.
+
+        x̂ is exact in free flight; x_n + h v_n does not pull a hanging stiff sheet by h² g
+        against its pins (a residual 100x smaller in the first Newton iteration).
+        """
+        self._trial_gravity(1.0)
+        e_hat = float(self.energy_t[None])
+        self._trial_gravity(0.0)
+        if float(self.energy_t[None]) > e_hat:
+            self._trial_gravity(1.0)
+        self._accept()
+
+    def _warm_up(self, state: State, control: Control) -> None:
+        self.h[None] = 1.0
+        self.gamma[None] = 0.0
+        self._begin(state.x, state.v, control.gravity)
+        self._trial_gravity(0.0)
+        self._grad_hess()
+        self._cg_init()
+        self._cg_iter()
+        self._post_solve()
+        self._trial(0.0)
+        self._internal_energy_kernel(state.x)
+
+    # ------------------------------------------------------------------ kernels
+    @ti.kernel
+    def _copy(self, xi: ti.template(), vi: ti.template(), xo: ti.template(), vo: ti.template()):
+        for i in range(self.model.particle_count):
+            xo[i] = xi[i]
+            vo[i] = vi[i]
+
+    @ti.kernel
+    def _begin(self, x_in: ti.template(), v_in: ti.template(), gravity: ti.template()):
+        h = self.h[None]
+        for i in range(self.model.particle_count):
+            self.x0[i] = x_in[i]
+            self.xh[i] = x_in[i] + h * v_in[i] + h * h * gravity[None]
+            self.x[i] = x_in[i]  # pinned vertices stay
+            self.dx[i] = ti.Vector([0.0, 0.0, 0.0])
+            if self.model.particle_inv_mass[i] > 0.0:
+                self.dx[i] = h * v_in[i]  # x_n + h v_n; _trial(1) adds h² g on top
+
+    @ti.func
+    def _corner(self, t, c):
+        """(c_u, c_v) of corner c of triangle t: F_u = Σ_c c_u x_c, F_v = Σ_c c_v x_c."""
+        r = self.model.tri_rest_inv[t]
+        cu = -(r[0, 0] + r[1, 0])
+        cv = -(r[0, 1] + r[1, 1])
+        if c == 1:
+            cu, cv = r[0, 0], r[0, 1]
+        elif c == 2:
+            cu, cv = r[1, 0], r[1, 1]
+        return cu, cv
+
+    @ti.func
+    def _inertia(self, i, xi):
+        """m/(2h²)|x − x̂|² + γm/(2h)|x − x_n|² of vertex i [J] (0 when pinned)."""
+        e = 0.0
+        if self.model.particle_inv_mass[i] > 0.0:
+            h = self.h[None]
+            m = self.model.particle_mass[i]
+            e = 0.5 * m * ((xi - self.xh[i]).norm_sqr() / (h * h)
+                           + self.gamma[None] * (xi - self.x0[i]).norm_sqr() / h)  # fmt: skip
+        return e
+
+    @ti.func
+    def _elastic_energy(self, x, acc):
+        """acc[None] += U(x) [J] (float64 sum)."""
+        m = self.model
+        for t in range(m.tri_count):
+            i = m.tri_indices[t]
+            f_u, f_v = forces.deformation_columns(x[i[0]], x[i[1]], x[i[2]], m.tri_rest_inv[t])
+            k = m.tri_stiffness[t]
+            u = forces.eq7_membrane_energy(f_u, f_v, m.tri_rest_area[t], k[0], k[1], k[2])
+            acc[None] += ti.cast(u, ti.f64)
+        if ti.static(m.hinge_count > 0):
+            for h in range(m.hinge_count):
+                j = m.hinge_indices[h]
+                th = forces.dihedral_angle(x[j[0]], x[j[1]], x[j[2]], x[j[3]])
+                d = th - m.hinge_rest_angle[h]
+                acc[None] += ti.cast(0.5 * m.hinge_stiffness[h] * d * d, ti.f64)
+        if ti.static(m.seam_count > 0):
+            for q in range(m.seam_count):
+                s = (x[m.seam_pairs[q][0]] - x[m.seam_pairs[q][1]]).norm() - m.seam_rest[q]
+                acc[None] += ti.cast(0.5 * m.seam_stiffness[q] * s * s, ti.f64)
+
+    @ti.kernel
+    def _internal_energy_kernel(self, x: ti.template()):
+        self.energy_t[None] = 0.0
+        self._elastic_energy(x, self.energy_t)
+
+    @ti.kernel
+    def _grad_hess(self):
+        """∇E, per-element Hessians, block-Jacobi preconditioner and E at self.x."""
+        m = self.model
+        x = ti.static(self.x)
+        self.energy[None] = 0.0
+        self.max_res[None] = 0.0
+        for t in range(m.tri_count):
+            i = m.tri_indices[t]
+            f_u, f_v = forces.deformation_columns(x[i[0]], x[i[1]], x[i[2]], m.tri_rest_inv[t])
+            k = m.tri_stiffness[t]
+            a = m.tri_rest_area[t]
+            self.t_gu[t], self.t_gv[t] = forces.eq8_membrane_gradient(f_u, f_v, a, k[0], k[1], k[2])
+            self.t_huu[t], self.t_huv[t], self.t_hvv[t] = hessians.membrane_hessian_f(
+                f_u, f_v, a, k[0], k[1], k[2]
+            )
+        if ti.static(m.hinge_count > 0):
+            for h in range(m.hinge_count):
+                j = m.hinge_indices[h]
+                th, g0, g1, g2, g3 = forces.dihedral_angle_gradient(
+                    x[j[0]], x[j[1]], x[j[2]], x[j[3]]
+                )
+                self.h_k[h] = m.hinge_stiffness[h]
+                self.h_s[h] = m.hinge_stiffness[h] * (th - m.hinge_rest_angle[h])
+                self.h_grad[4 * h] = g0
+                self.h_grad[4 * h + 1] = g1
+                self.h_grad[4 * h + 2] = g2
+                self.h_grad[4 * h + 3] = g3
+        if ti.static(m.seam_count > 0):
+            for q in range(m.seam_count):
+                d = x[m.seam_pairs[q][0]] - x[m.seam_pairs[q][1]]
+                r = m.seam_rest[q]
+                k = m.seam_stiffness[q]
+                g = k * d
+                if r > 0.0:
+                    length = d.norm()
+                    g = ti.Vector([0.0, 0.0, 0.0])
+                    if length > 1e-12:
+                        g = k * (length - r) / length * d
+                self.s_grad[q] = g
+                self.s_hess[q] = hessians.seam_spring_hessian(d, r, k)
+        self._elastic_energy(x, self.energy)
+        h = self.h[None]
+        c_mass = 1.0 / (h * h) + self.gamma[None] / h
+        for i in range(m.particle_count):
+            g = ti.Vector([0.0, 0.0, 0.0])
+            d = ti.Matrix.zero(float, 3, 3)
+            for s in range(m.vert_tri_start[i], m.vert_tri_start[i + 1]):
+                slot = m.vert_tri_slot[s]
+                t = slot // 3
+                cu, cv = self._corner(t, slot % 3)
+                g += cu * self.t_gu[t] + cv * self.t_gv[t]
+                huv = self.t_huv[t]
+                d += cu * cu * self.t_huu[t] + cu * cv * (huv + huv.transpose())
+                d += cv * cv * self.t_hvv[t]
+            if ti.static(m.hinge_count > 0):
+                for s in range(m.vert_hinge_start[i], m.vert_hinge_start[i + 1]):
+                    slot = m.vert_hinge_slot[s]
+                    gh = self.h_grad[slot]
+                    g += self.h_s[slot // 4] * gh
+                    d += hessians.hinge_hessian_block(self.h_k[slot // 4], gh, gh)
+            if ti.static(m.seam_count > 0):
+                for s in range(m.vert_seam_start[i], m.vert_seam_start[i + 1]):
+                    slot = m.vert_seam_slot[s]
+                    sign = 1.0 - 2.0 * (slot % 2)
+                    g += sign * self.s_grad[slot // 2]
+                    d += self.s_hess[slot // 2]
+            mi = m.particle_mass[i]
+            if m.particle_inv_mass[i] > 0.0:
+                xi = x[i]
+                g += mi * ((xi - self.xh[i]) / (h * h) + self.gamma[None] * (xi - self.x0[i]) / h)
+                d += mi * c_mass * ti.Matrix.identity(float, 3)
+                self.grad[i] = g
+                self.pinv[i] = d.inverse()
+                self.energy[None] += ti.cast(self._inertia(i, xi), ti.f64)
+                ti.atomic_max(self.max_res[None], g.norm() / (mi * 9.80665))
+            else:
+                self.grad[i] = ti.Vector([0.0, 0.0, 0.0])
+                self.pinv[i] = ti.Matrix.zero(float, 3, 3)
+
+    @ti.kernel
+    def _cg_init(self):
+        self.rz[None] = 0.0
+        self.rr[None] = 0.0
+        for i in range(self.model.particle_count):
+            self.dx[i] = ti.Vector([0.0, 0.0, 0.0])
+            r = -self.grad[i]
+            z = self.pinv[i] @ r
+            self.r[i] = r
+            self.z[i] = z
+            self.p[i] = z
+            self.rz[None] += ti.cast(r.dot(z), ti.f64)
+            self.rr[None] += ti.cast(r.dot(r), ti.f64)
+
+    @ti.func
+    def _apply(self, p, out, pap):
+        """out = (M (1/h² + γ/h) + H) p, zero on pinned vertices; pap[None] = p·out."""
+        m = self.model
+        for t in range(m.tri_count):
+            i = m.tri_indices[t]
+            yu = ti.Vector([0.0, 0.0, 0.0])
+            yv = ti.Vector([0.0, 0.0, 0.0])
+            for c in ti.static(range(3)):
+                cu, cv = self._corner(t, c)
+                yu += cu * p[i[c]]
+                yv += cv * p[i[c]]
+            huv = self.t_huv[t]
+            self.t_zu[t] = self.t_huu[t] @ yu + huv @ yv
+            self.t_zv[t] = huv.transpose() @ yu + self.t_hvv[t] @ yv
+        if ti.static(m.hinge_count > 0):
+            for h in range(m.hinge_count):
+                j = m.hinge_indices[h]
+                s = 0.0
+                for k in ti.static(range(4)):
+                    s += self.h_grad[4 * h + k].dot(p[j[k]])
+                self.h_z[h] = self.h_k[h] * s
+        if ti.static(m.seam_count > 0):
+            for q in range(m.seam_count):
+                self.s_z[q] = self.s_hess[q] @ (p[m.seam_pairs[q][0]] - p[m.seam_pairs[q][1]])
+        hh = self.h[None]
+        c_mass = 1.0 / (hh * hh) + self.gamma[None] / hh
+        pap[None] = 0.0
+        for i in range(m.particle_count):
+            y = ti.Vector([0.0, 0.0, 0.0])
+            if m.particle_inv_mass[i] > 0.0:
+                y = m.particle_mass[i] * c_mass * p[i]
+                for s in range(m.vert_tri_start[i], m.vert_tri_start[i + 1]):
+                    slot = m.vert_tri_slot[s]
+                    t = slot // 3
+                    cu, cv = self._corner(t, slot % 3)
+                    y += cu * self.t_zu[t] + cv * self.t_zv[t]
+                if ti.static(m.hinge_count > 0):
+                    for s in range(m.vert_hinge_start[i], m.vert_hinge_start[i + 1]):
+                        slot = m.vert_hinge_slot[s]
+                        y += self.h_z[slot // 4] * self.h_grad[slot]
+                if ti.static(m.seam_count > 0):
+                    for s in range(m.vert_seam_start[i], m.vert_seam_start[i + 1]):
+                        slot = m.vert_seam_slot[s]
+                        y += (1.0 - 2.0 * (slot % 2)) * self.s_z[slot // 2]
+            out[i] = y
+            pap[None] += ti.cast(p[i].dot(y), ti.f64)
+
+    @ti.kernel
+    def _cg_iter(self):
+        """One preconditioned CG iteration (Hestenes-Stiefel form)."""
+        self._apply(self.p, self.ap, self.pap)
+        self.alpha[None] = ti.cast(self.rz[None] / ti.max(self.pap[None], 1e-300), float)
+        self.rz_new[None] = 0.0
+        self.rr[None] = 0.0
+        for i in range(self.model.particle_count):
+            a = self.alpha[None]
+            self.dx[i] += a * self.p[i]
+            r = self.r[i] - a * self.ap[i]
+            z = self.pinv[i] @ r
+            self.r[i] = r
+            self.z[i] = z
+            self.rz_new[None] += ti.cast(r.dot(z), ti.f64)
+            self.rr[None] += ti.cast(r.dot(r), ti.f64)
+        self.beta[None] = ti.cast(self.rz_new[None] / ti.max(self.rz[None], 1e-300), float)
+        self.rz[None] = self.rz_new[None]
+        for i in range(self.model.particle_count):
+            self.p[i] = self.z[i] + self.beta[None] * self.p[i]
+
+    @ti.kernel
+    def _post_solve(self):
+        self.max_dx[None] = 0.0
+        self.slope[None] = 0.0
+        for i in range(self.model.particle_count):
+            ti.atomic_max(self.max_dx[None], self.dx[i].norm())
+            self.slope[None] += ti.cast(self.grad[i].dot(self.dx[i]), ti.f64)
+
+    @ti.kernel
+    def _trial(self, alpha: float):
+        for i in range(self.model.particle_count):
+            self.xt[i] = self.x[i] + alpha * self.dx[i]
+        self.energy_t[None] = 0.0
+        self._elastic_energy(self.xt, self.energy_t)
+        for i in range(self.model.particle_count):
+            self.energy_t[None] += ti.cast(self._inertia(i, self.xt[i]), ti.f64)
+
+    @ti.kernel
+    def _trial_gravity(self, w: float):
+        """xt = x_n + h v_n + w (x̂ − x_n − h v_n) on free vertices (dx holds h v_n)."""
+        for i in range(self.model.particle_count):
+            self.xt[i] = self.x0[i]
+            if self.model.particle_inv_mass[i] > 0.0:
+                self.xt[i] = self.x0[i] + self.dx[i] + w * (self.xh[i] - self.x0[i] - self.dx[i])
+        self.energy_t[None] = 0.0
+        self._elastic_energy(self.xt, self.energy_t)
+        for i in range(self.model.particle_count):
+            self.energy_t[None] += ti.cast(self._inertia(i, self.xt[i]), ti.f64)
+
+    @ti.kernel
+    def _accept(self):
+        for i in range(self.model.particle_count):
+            self.x[i] = self.xt[i]
+
+    @ti.kernel
+    def _finish(self, x_out: ti.template(), v_out: ti.template(), index: ti.i32):
+        m = self.model
+        h = self.h[None]
+        for i in range(m.particle_count):
+            v = ti.Vector([0.0, 0.0, 0.0])
+            if m.particle_inv_mass[i] > 0.0:
+                v = (self.x[i] - self.x0[i]) / h
+                # contact (§2.5): each collider revises v(t+h) from x(t), as in Eq. 2's solver
+                for c in ti.static(m.colliders):
+                    v = c.respond(self.x0[i], v, h)
+            x_new = self.x0[i] + h * v
+            if not (ti.abs(x_new).max() < 1e30):  # catches NaN and infinity
+                ti.atomic_min(self.bad_step[None], index)
+                ti.atomic_min(self.bad_vertex[None], i)
+            x_out[i] = x_new
+            v_out[i] = v
+
+
+def _is_f64() -> bool:
+    from sandbox import runtime
+
+    return runtime.is_float64()
