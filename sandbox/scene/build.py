@@ -22,6 +22,9 @@ from sandbox.sim.solver import SymplecticEulerSolver
 DT_SAFETY = 0.9
 """Fraction of the estimated explicit stability limit used when ``dt_s = "auto"``."""
 
+IMPLICIT_DT_S = 1.0 / 60.0
+"""``dt_s = "auto"`` with ``integrator = "implicit_euler"``: 1/60 s, or one frame if shorter."""
+
 
 @dataclass
 class Scene:
@@ -215,9 +218,19 @@ def build_scene(spec: SceneSpec) -> Scene:
     sim = spec.simulation
     frame = 1.0 / sim.frame_rate_hz
     limit = stable_dt_estimate(model)
-    dt = sim.dt_s if sim.dt_s is not None else min(frame, DT_SAFETY * limit)
+    auto = min(frame, IMPLICIT_DT_S if sim.integrator == "implicit_euler" else DT_SAFETY * limit)
+    dt = sim.dt_s if sim.dt_s is not None else auto
     steps = max(1, math.ceil(frame / dt - 1e-9))
     dt = frame / steps  # a whole number of steps per output frame
     control = model.control(gravity=sim.gravity_m_s2, damping_per_s=sim.damping_per_s)
-    return Scene(spec, model, model.state(), control, SymplecticEulerSolver(model), dt, steps,
-                 limit)  # fmt: skip
+    return Scene(spec, model, model.state(), control, make_solver(model, sim.integrator), dt,
+                 steps, limit)  # fmt: skip
+
+
+def make_solver(model: Model, integrator: str):
+    """The solver named by ``[simulation] integrator``."""
+    if integrator == "implicit_euler":
+        from sandbox.sim.implicit import ImplicitEulerSolver
+
+        return ImplicitEulerSolver(model)
+    return SymplecticEulerSolver(model)

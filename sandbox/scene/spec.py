@@ -15,7 +15,7 @@ from pathlib import Path
 from sandbox.errors import SandboxError
 from sandbox.sim.materials import Material, material_from_spec
 
-INTEGRATORS = ("symplectic_euler",)
+INTEGRATORS = ("symplectic_euler", "implicit_euler")
 SHAPES = ("rectangle", "polygon")
 MESHERS = ("irregular", "grid")
 SIDES = ("top", "bottom", "left", "right")
