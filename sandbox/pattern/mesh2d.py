@@ -114,16 +114,24 @@ def spatial_order(points: np.ndarray, tris: np.ndarray) -> tuple[np.ndarray, np.
     Neighbouring vertices then sit near each other in memory, which makes the solver's
     gather loops several times faster than Triangle's own numbering. Geometry unchanged.
     """
-    lo = points.min(axis=0)
-    span = max(float(np.ptp(points, axis=0).max()), 1e-30)
-    q = np.clip(((points - lo) / span * 65535.0).astype(np.int64), 0, 65535)
-    key = _spread_bits(q[:, 0]) | (_spread_bits(q[:, 1]) << 1)
-    order = np.argsort(key, kind="stable")
+    order = morton_order(points)
     rank = np.empty_like(order)
     rank[order] = np.arange(len(order))
     tris = rank[tris]
     tris = tris[np.argsort(tris.min(axis=1), kind="stable")]
     return points[order], tris
+
+
+def morton_order(points: np.ndarray) -> np.ndarray:
+    """Permutation (n,) that sorts points (n, 2) along a Z-order (Morton) curve.
+
+    ``points[order]`` is the order :func:`spatial_order` uses.
+    """
+    lo = points.min(axis=0)
+    span = max(float(np.ptp(points, axis=0).max()), 1e-30)
+    q = np.clip(((points - lo) / span * 65535.0).astype(np.int64), 0, 65535)
+    key = _spread_bits(q[:, 0]) | (_spread_bits(q[:, 1]) << 1)
+    return np.argsort(key, kind="stable")
 
 
 def _spread_bits(v: np.ndarray) -> np.ndarray:

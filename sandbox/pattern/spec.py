@@ -16,6 +16,7 @@ from __future__ import annotations
 import copy
 import json
 import math
+import re
 from dataclasses import dataclass, field
 from functools import cache
 from importlib import resources
@@ -23,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sandbox.atomic import write_json
+from sandbox.atomic import write_text
 from sandbox.errors import SandboxError
 from sandbox.pattern import curves
 from sandbox.pattern.mesh2d import polygon_area
@@ -322,7 +323,17 @@ def save_pattern(pattern: Pattern | dict, path: str | Path) -> Path:
     else:
         raise SandboxError(f"{path}: save_pattern needs a Pattern or a dict, got {type(pattern)}")
     load_pattern(data, where=f"{path} (before saving)")
-    return write_json(path, data)
+    return write_text(path, pattern_json(data))
+
+
+_NUMBER_LIST = re.compile(r"\[\s*(-?[\d.eE+-]+(?:\s*,\s*-?[\d.eE+-]+)*)\s*\]")
+
+
+def pattern_json(data: dict) -> str:
+    """JSON text of a pattern dict: indented, but points and vectors on one line."""
+    text = json.dumps(data, indent=2, ensure_ascii=False)
+    return _NUMBER_LIST.sub(lambda m: "[" + ", ".join(re.split(r"\s*,\s*", m.group(1))) + "]",
+                            text) + "\n"  # fmt: skip
 
 
 @cache

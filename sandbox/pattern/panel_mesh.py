@@ -1,0 +1,190 @@
+"""Mesh pattern panels and resolve seams to mesh vertices (paper §2.1 grids, §2.4 seams).
+
+Each edge of a panel is sampled evenly by arc length (no segment longer than the target
+edge length); the samples are the panel's whole boundary. A constrained quality Delaunay
+triangulation (Shewchuk's Triangle, switch ``Y``: no Steiner point on the boundary) fills
+the inside, so the vertices of every edge are known exactly: ``edge_vertices[k]`` lists them
+from the edge's start to its end, corners shared with the neighbouring edges.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import triangle as tr
+
+from sandbox.errors import SandboxError
+from sandbox.pattern.mesh2d import morton_order, orient_ccw
+from sandbox.pattern.spec import Panel, Pattern
+
+DEFAULT_EDGE_M = 0.01
+MIN_ANGLE_DEG = 28.0
+"""Requested minimum angle; Triangle reaches it except next to sharper outline corners."""
+
+
+@dataclass
+class PanelMesh:
+    """A meshed panel, in panel coordinates.
+
+    ``points`` (n, 2) [m]; ``triangles`` (m, 3) int64, counter-clockwise; ``edge_vertices``
+    one int64 array per panel edge: vertex indices along the edge from its start to its end;
+    ``boundary`` (b,) the boundary loop (counter-clockwise); ``grain_rad`` the warp angle
+    from the panel x axis [rad] (``ModelBuilder.add_cloth(grain_rad=...)``).
+    """
+
+    name: str
+    points: np.ndarray
+    triangles: np.ndarray
+    edge_vertices: list[np.ndarray]
+    edge_names: list[str]
+    boundary: np.ndarray
+    grain_rad: float
+
+    def edge(self, name: str) -> np.ndarray:
+        """Vertex indices along the edge called ``name``."""
+        return self.edge_vertices[self.edge_names.index(name)]
+
+
+def mesh_panel(
+    panel: Panel,
+    edge_length_m: float = DEFAULT_EDGE_M,
+    *,
+    min_angle_deg: float = MIN_ANGLE_DEG,
+    where: str | None = None,
+) -> PanelMesh:
+    """Irregular quality mesh of a panel with its edges resolved to vertices.
+
+    Args:
+        panel: a loaded panel (:func:`sandbox.pattern.spec.load_pattern`).
+        edge_length_m: target edge length [m]; boundary segments are at most this long and
+            triangles at most about the area of an equilateral triangle of this side.
+        min_angle_deg: Triangle's minimum angle (quality) constraint.
+        where: names the panel in error messages.
+    """
+    where = where or f"panel {panel.name!r}"
+    if not (edge_length_m > 0 and math.isfinite(edge_length_m)):
+        raise SandboxError(f"{where}: edge length must be a positive number, got {edge_length_m}")
+    samples = [e.sample(edge_length_m) for e in panel.edges]
+    boundary = np.vstack([s[:-1] for s in samples])
+    nb = len(boundary)
+    starts = np.cumsum([0] + [len(s) - 1 for s in samples])
+    edge_vertices = []
+    for k, s in enumerate(samples):
+        idx = starts[k] + np.arange(len(s))
+        idx[-1] = starts[k + 1] % nb
+        edge_vertices.append(idx.astype(np.int64))
+    segments = np.stack([np.arange(nb), (np.arange(nb) + 1) % nb], axis=1)
+    max_area = math.sqrt(3.0) / 4.0 * edge_length_m**2 * 1.4
+    try:
+        out = tr.triangulate(
+            {"vertices": boundary, "segments": segments},
+            f"pq{min_angle_deg:g}a{np.format_float_positional(max_area, trim='-')}YQ",
+        )
+    except Exception as exc:  # Triangle reports bad input as generic errors
+        raise SandboxError(f"{where}: could not mesh the outline ({exc})") from None
+    if "triangles" not in out or len(out["triangles"]) == 0:
+        raise SandboxError(f"{where}: meshing produced no triangles (self-intersecting outline?)")
+    pts = np.asarray(out["vertices"], dtype=np.float64)
+    tris = np.asarray(out["triangles"], dtype=np.int64)
+    if len(pts) < nb or not np.array_equal(pts[:nb], boundary):
+        raise SandboxError(f"{where}: the mesher moved the boundary points")
+    seg_out = np.sort(np.asarray(out.get("segments", segments)), axis=1)
+    if len(seg_out) != nb:  # 'Y' forbids splitting boundary segments: must hold
+        raise SandboxError(f"{where}: the mesher split a boundary segment")
+    used = np.zeros(len(pts), bool)
+    used[tris.ravel()] = True
+    if not used.all():  # points Triangle did not use (duplicates): drop them
+        keep = np.nonzero(used)[0]
+        if not used[:nb].all():
+            raise SandboxError(f"{where}: a boundary point belongs to no triangle")
+        remap = -np.ones(len(pts), np.int64)
+        remap[keep] = np.arange(len(keep))
+        pts, tris = pts[keep], remap[tris]
+    tris = orient_ccw(pts, tris)
+    order = morton_order(pts)
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    tris = rank[tris]
+    tris = tris[np.argsort(tris.min(axis=1), kind="stable")]
+    return PanelMesh(
+        name=panel.name,
+        points=pts[order],
+        triangles=tris,
+        edge_vertices=[rank[ev] for ev in edge_vertices],
+        edge_names=[e.name for e in panel.edges],
+        boundary=rank[np.arange(nb)],
+        grain_rad=panel.grain_rad,
+    )
+
+
+def mesh_pattern(pattern: Pattern, edge_length_m: float | None = None) -> dict[str, PanelMesh]:
+    """:func:`mesh_panel` for every panel; the target edge defaults to the file's mesh_edge."""
+    h = pattern.mesh_edge_m if edge_length_m is None else edge_length_m
+    return {
+        name: mesh_panel(p, h, where=f"{pattern.source}: panel {name!r}")
+        for name, p in pattern.panels.items()
+    }
+
+
+def _chain(pattern: Pattern, side: list[tuple[str, int]]) -> list[bool]:
+    """For each edge of a seam side: True to run it backwards (end -> start).
+
+    Consecutive edges of the same panel that share a corner are chained through it (each
+    one runs away from the previous one); other edges keep their from -> to direction.
+    """
+    flip = [False] * len(side)
+    ends = [(pattern.panels[p].edges[k].start, pattern.panels[p].edges[k].end) for p, k in side]
+    if len(side) >= 2 and side[0][0] == side[1][0]:
+        s0, e0 = ends[0]
+        if s0 in ends[1] and e0 not in ends[1]:
+            flip[0] = True
+    for j in range(1, len(side)):
+        if side[j][0] != side[j - 1][0]:
+            continue
+        prev_end = ends[j - 1][0] if flip[j - 1] else ends[j - 1][1]
+        s, e = ends[j]
+        if e == prev_end and s != prev_end:
+            flip[j] = True
+    return flip
+
+
+def pattern_seam_sides(
+    pattern: Pattern, meshes: dict[str, PanelMesh], piece_index: dict[str, int]
+) -> list[dict]:
+    """Every seam of the pattern as keyword arguments of ``ModelBuilder.add_seam``.
+
+    Args:
+        pattern: the loaded pattern.
+        meshes: panel name -> :class:`PanelMesh` (as from :func:`mesh_pattern`).
+        piece_index: panel name -> the piece index ``ModelBuilder.add_cloth`` returned.
+
+    Returns a list of dicts with ``side_a`` and ``side_b`` (lists of ``(piece index, local
+    vertex indices along the edge in order)``), ``direction``, ``stiffness_N_m`` and
+    ``where``, so ``builder.add_seam(**s)`` sews it. Several edges on one side form one
+    line in the order given; consecutive edges of one panel that share a corner are chained
+    through it.
+    """
+    out = []
+    for i, s in enumerate(pattern.seams):
+        where = f"{pattern.source}: seam #{i}" + (f" ({s.name!r})" if s.name else "")
+        sides = []
+        for side in (s.side_a, s.side_b):
+            entries = []
+            for (pname, k), back in zip(side, _chain(pattern, side), strict=True):
+                if pname not in meshes or pname not in piece_index:
+                    raise SandboxError(f"{where}: panel {pname!r} has no mesh or no piece index")
+                idx = meshes[pname].edge_vertices[k]
+                entries.append((int(piece_index[pname]), idx[::-1].copy() if back else idx))
+            sides.append(entries)
+        out.append(
+            dict(
+                side_a=sides[0],
+                side_b=sides[1],
+                direction=s.direction,
+                stiffness_N_m=s.stiffness_N_m,
+                where=where,
+            )
+        )
+    return out
