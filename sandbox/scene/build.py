@@ -180,6 +180,19 @@ def build_collider(c, collision):
     )  # fmt: skip
 
 
+def build_self_collider(model: Model, spec: SceneSpec):
+    """A SelfCollider if the scene asks for one (by default: when it has a collider)."""
+    wanted = spec.collision.self_collision
+    if wanted is None:
+        wanted = bool(spec.colliders)
+    if not wanted:
+        return None
+    from sandbox.collision.self_contact import SelfCollider
+
+    return SelfCollider(model, thickness_m=spec.collision.thickness_m,
+                        friction=spec.collision.friction_kinetic)  # fmt: skip
+
+
 def build_scene(spec: SceneSpec) -> Scene:
     """Mesh, check and allocate a scene. Initialises Taichi on the CPU if nobody did."""
     builder = ModelBuilder()
@@ -215,6 +228,7 @@ def build_scene(spec: SceneSpec) -> Scene:
         )  # fmt: skip
     model = builder.finalize(bending=spec.simulation.bending)
     model.colliders = [build_collider(c, spec.collision) for c in spec.colliders]
+    model.self_collider = build_self_collider(model, spec)
     sim = spec.simulation
     frame = 1.0 / sim.frame_rate_hz
     limit = stable_dt_estimate(model)

@@ -81,7 +81,7 @@ class CollisionSpec:
     thickness_m: float = 2e-3
     friction_static: float = 0.4
     friction_kinetic: float = 0.3
-    self_collision: bool = False
+    self_collision: bool | None = None  # None: on when the scene has a collider
 
 
 COLLIDER_KEYS = {
@@ -271,13 +271,10 @@ def _collision(r: _Reader, t: dict) -> CollisionSpec:
     c.thickness_m = r.number(t, w, "thickness_m", c.thickness_m, positive=True)
     c.friction_static = r.number(t, w, "friction_static", c.friction_static, minimum=0.0)
     c.friction_kinetic = r.number(t, w, "friction_kinetic", c.friction_kinetic, minimum=0.0)
-    c.self_collision = r.boolean(t, w, "self_collision", c.self_collision)
+    if "self_collision" in t:
+        c.self_collision = r.boolean(t, w, "self_collision", False)
     if c.friction_kinetic > c.friction_static:
         raise SandboxError(f"{r.source}: {w}: friction_kinetic must not exceed friction_static")
-    if c.self_collision:
-        raise SandboxError(
-            f"{r.source}: {w} self_collision = true is not available yet (issue 4); set it to false"
-        )
     return c
 
 

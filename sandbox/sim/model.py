@@ -97,6 +97,7 @@ class Model:
         self.hinge_indices_np = hinge_indices
         self.hinge_stiffness_np = hinge_stiffness
         self.colliders: list = []  # BodyColliders, added by the scene only when it has some
+        self.self_collider = None  # a SelfCollider, only when the scene asks for one
 
         n, m, h = self.particle_count, self.tri_count, self.hinge_count
         self.particle_mass = ti.field(float, shape=max(1, n))

@@ -3,7 +3,8 @@
 One step, as the paper's Fig. 4(a):
   1. forces F(t_n): membrane (Eq. 6-8), bending (Eq. 7-8), gravity, damping;
   2. v(t_n+1) = v(t_n) + dt F(t_n)/m                      (explicit, Eq. 2 first line)
-  3. contact handlers revise v(t_n+1)                        (none until colliders exist)
+  3. contact handlers revise v(t_n+1): each body collider per vertex, then the cloth's
+     self-collision passes over vertex pairs (only in scenes that have them)
   4. x(t_n+1) = x(t_n) + dt v(t_n+1)                       (implicit in v, Eq. 2 second line)
 
 Damping is mass-proportional viscous damping F_damp = −γ m v(t_n), with γ [1/s] in
@@ -44,6 +45,10 @@ class SymplecticEulerSolver:
         self.seam_force = None
         if model.seam_count:
             self.seam_force = ti.Vector.field(3, float, shape=2 * model.seam_count)
+        self.self_collider = model.self_collider
+        self.has_self_collision = model.self_collider is not None
+        self.halted = ti.field(ti.i32, shape=())  # self-collision needs the Python fail-safe
+        self.steps_done = ti.field(ti.i32, shape=())
         self.bad_step = ti.field(ti.i32, shape=())
         self.bad_vertex = ti.field(ti.i32, shape=())
         self.energy = ti.field(ti.f64, shape=())
@@ -56,6 +61,13 @@ class SymplecticEulerSolver:
         ``state_out`` may be ``state_in`` (in place). ``index`` is the global step number,
         recorded if this step produces a non-finite position.
         """
+        sc = self.self_collider
+        if sc is not None:
+            self._kick_kernel(state_in.x, state_in.v, state_out.v, control.gravity,
+                              control.damping_per_s, dt)  # fmt: skip
+            sc.resolve(state_in.x, state_out.v, dt)
+            self._drift_kernel(state_in.x, state_out.v, state_out.x, dt, index)
+            return
         self._step_kernel(
             state_in.x, state_in.v, state_out.x, state_out.v, control.gravity,
             control.damping_per_s, dt, index,
@@ -63,10 +75,21 @@ class SymplecticEulerSolver:
 
     def advance(self, state: State, control: Control, dt: float, steps: int, first_index=0):
         """Advance ``state`` in place by ``steps`` steps of ``dt`` [s]."""
+        sc = self.self_collider
         if runtime.arch() == "cpu" and self.model.particle_count <= FUSED_PARTICLE_LIMIT:
-            self._fused_kernel(
-                state.x, state.v, control.gravity, control.damping_per_s, dt, steps, first_index
-            )
+            done = 0
+            while done < steps:
+                self.halted[None] = 0
+                self.steps_done[None] = 0
+                self._fused_kernel(state.x, state.v, control.gravity, control.damping_per_s,
+                                   dt, steps - done, first_index + done)  # fmt: skip
+                done += int(self.steps_done[None])
+                if sc is not None:
+                    sc.check_capacity()
+                    if self.halted[None]:  # a step the kernel could not resolve on its own
+                        sc.resolve(state.x, state.v, dt)
+                        self._drift_kernel(state.x, state.v, state.x, dt, first_index + done)
+                        done += 1
         else:
             for k in range(steps):
                 self.step(state, state, control, dt, first_index + k)
@@ -108,8 +131,33 @@ class SymplecticEulerSolver:
     ):  # fmt: skip
         ti.loop_config(serialize=True)
         for k in range(steps):
-            self._element_forces(x)
-            self._kick_drift(x, v, x, v, gravity, damping, dt, first_index + k)
+            if self.halted[None] == 0:
+                self._element_forces(x)
+                if ti.static(not self.has_self_collision):
+                    self._kick_drift(x, v, x, v, gravity, damping, dt, first_index + k)
+                    self.steps_done[None] += 1
+                else:
+                    self._kick(x, v, v, gravity, damping, dt)
+                    if self.model.self_collider.respond(x, v, dt):
+                        self._drift(x, v, x, dt, first_index + k)
+                        self.steps_done[None] += 1
+                    else:
+                        self.halted[None] = 1
+
+    @ti.kernel
+    def _kick_kernel(
+        self, x_in: ti.template(), v_in: ti.template(), v_out: ti.template(),
+        gravity: ti.template(), damping: ti.template(), dt: float,
+    ):  # fmt: skip
+        self._element_forces(x_in)
+        self._kick(x_in, v_in, v_out, gravity, damping, dt)
+
+    @ti.kernel
+    def _drift_kernel(
+        self, x_in: ti.template(), v: ti.template(), x_out: ti.template(), dt: float,
+        index: ti.i32,
+    ):  # fmt: skip
+        self._drift(x_in, v, x_out, dt, index)
 
     @ti.kernel
     def _forces_kernel(
@@ -205,22 +253,45 @@ class SymplecticEulerSolver:
         return f
 
     @ti.func
-    def _kick_drift(self, x_in, v_in, x_out, v_out, gravity, damping, dt, index):
+    def _velocity(self, i, x_in, v_in, gravity, damping, dt):
+        """v(t+dt) of particle i: Eq. 2's velocity update, then the body colliders."""
         m = self.model
-        for i in range(m.particle_count):
-            w = m.particle_inv_mass[i]
-            v_new = ti.Vector([0.0, 0.0, 0.0])
-            if w > 0.0:
-                # Eq. 2: v(t+dt) = v(t) + dt F(t)/m, F = F_int + m g − γ m v(t)
-                f = self._gathered_force(i)
-                v_new = v_in[i] + dt * (f * w + gravity[None] - damping[None] * v_in[i])
-                # contact (§2.5): each collider revises v(t+dt) before the position update
-                for c in ti.static(m.colliders):
-                    v_new = c.respond(x_in[i], v_new, dt)
-            # Eq. 2: x(t+dt) = x(t) + dt v(t+dt)
-            x_new = x_in[i] + dt * v_new
-            if not (ti.abs(x_new).max() < 1e30):  # catches NaN and infinity
-                ti.atomic_min(self.bad_step[None], index)
-                ti.atomic_min(self.bad_vertex[None], i)
+        w = m.particle_inv_mass[i]
+        v_new = ti.Vector([0.0, 0.0, 0.0])
+        if w > 0.0:
+            # Eq. 2: v(t+dt) = v(t) + dt F(t)/m, F = F_int + m g − γ m v(t)
+            f = self._gathered_force(i)
+            v_new = v_in[i] + dt * (f * w + gravity[None] - damping[None] * v_in[i])
+            # contact (§2.5): each collider revises v(t+dt) before the position update
+            for c in ti.static(m.colliders):
+                v_new = c.respond(x_in[i], v_new, dt)
+        return v_new
+
+    @ti.func
+    def _position(self, i, x_in, x_out, v_new, dt, index):
+        # Eq. 2: x(t+dt) = x(t) + dt v(t+dt)
+        x_new = x_in[i] + dt * v_new
+        if not (ti.abs(x_new).max() < 1e30):  # catches NaN and infinity
+            ti.atomic_min(self.bad_step[None], index)
+            ti.atomic_min(self.bad_vertex[None], i)
+        x_out[i] = x_new
+
+    @ti.func
+    def _kick_drift(self, x_in, v_in, x_out, v_out, gravity, damping, dt, index):
+        """Both halves of Eq. 2 in one pass (no self-collision between them)."""
+        for i in range(self.model.particle_count):
+            v_new = self._velocity(i, x_in, v_in, gravity, damping, dt)
             v_out[i] = v_new
-            x_out[i] = x_new
+            self._position(i, x_in, x_out, v_new, dt, index)
+
+    @ti.func
+    def _kick(self, x_in, v_in, v_out, gravity, damping, dt):
+        for i in range(self.model.particle_count):
+            v_out[i] = self._velocity(i, x_in, v_in, gravity, damping, dt)
+
+    @ti.func
+    def _drift(self, x_in, v, x_out, dt, index):
+        """Positions after self-collision, with its separation (``corr``, not a velocity)."""
+        sc = self.model.self_collider
+        for i in range(self.model.particle_count):
+            self._position(i, x_in, x_out, v[i] + sc.corr[i], dt, index)

@@ -1,0 +1,557 @@
+"""Cloth against itself, after Bridson, Fedkiw and Anderson (2002), paper §2.5.
+
+After the explicit velocity update of Eq. 2 (and the body colliders), and before the
+position update, the cloth's candidate velocities v(t+dt) are revised in three passes:
+
+1. **Proximity** (Bridson §7.2). Every vertex–triangle and edge–edge pair closer than the
+   thickness h at x(t) gets an inelastic normal impulse if it approaches, Coulomb friction
+   from that impulse (μ), and a separation of a quarter of the missing thickness, applied as
+   a position correction that does not enter the velocity (a 1/dt velocity kick would
+   throw the cloth apart at small dt).
+2. **Continuous collision** (§6.1, §7.3). Each pair is tested along its linear motion
+   x(t) -> x(t) + dt v: the times where the four points are coplanar (a cubic) are checked
+   for contact, and the first contact is answered with the normal velocity change that
+   leaves the pair 0.1 h (or half its start distance) apart at the end of the step. The
+   pass repeats until no pair collides, at most ``CCD_PASSES`` times.
+3. **Rigid impact zones** (§7.4), the fail-safe: if collisions remain, the vertices of the
+   colliding pairs are merged into zones that move rigidly for this step (their linear and
+   angular momentum kept; a zone with a pinned vertex stands still), growing until no pair
+   collides. This runs in numpy, outside the step kernel, and is rare.
+
+Impulses are distributed to the four vertices with the pair's barycentric weights w
+(vertex–triangle: 1, −b0, −b1, −b2; edge–edge: 1−s, s, −(1−t), −t) and the inverse masses,
+so momentum is conserved and pinned vertices never move.
+
+Candidate pairs are kept in a list (a Verlet list): all pairs closer than h + margin at the
+positions x_b of the last rebuild. Moving every vertex by at most margin/2 changes any
+pair's distance by at most margin, so as long as x(t) and x(t+dt) stay within margin/2 of
+x_b, no pair outside the list can come within h during the step. The list is rebuilt
+(hash grid of vertices and edges, in Taichi) when a vertex would leave that bound; the
+margin grows with the step's largest displacement so large steps stay covered.
+
+Excluded pairs: a vertex and a triangle that contains it, two edges with a common vertex,
+and pairs joined by a seam spring (a vertex with a triangle or an edge holding its seam
+partner).
+"""
+
+import math
+
+import numpy as np
+import taichi as ti
+
+from sandbox import runtime
+from sandbox.collision.primitives import (
+    coplanar_times,
+    point_triangle_closest,
+    segment_segment_closest,
+)
+from sandbox.errors import SandboxError
+
+CCD_PASSES = 8
+MARGIN_STEPS = 8.0  # the margin covers at least this many steps of the fastest vertex
+CELL_SCALE = 1.5  # grid cell size over max(mean rest edge length, reach)
+SEPARATION_FRACTION = 0.25  # of the missing thickness, per step (proximity pass)
+CCD_GAP_FRACTION = 0.1  # of the thickness, left between a colliding pair (CCD pass)
+PAIRS_PER_VERTEX = 24  # pair list capacity per vertex + per edge
+ZONE_ROUNDS = 100
+KIND_VT = 0
+KIND_EE = 1
+
+
+@ti.data_oriented
+class SelfCollider:
+    """Self-collision for a :class:`~sandbox.sim.model.Model`'s cloth.
+
+    Args:
+        model: the cloth model (triangles, inverse masses, seam pairs).
+        thickness_m: h, the distance the cloth keeps from itself [m].
+        friction: Coulomb coefficient μ between cloth layers.
+        margin_m: the candidate list's extra reach [m] (default 2 h).
+    """
+
+    def __init__(self, model, *, thickness_m=2e-3, friction=0.3, margin_m=None):
+        if not thickness_m > 0:
+            raise SandboxError("self-collision: thickness must be positive")
+        self.model = model
+        n = model.particle_count
+        tris = np.asarray(model.tri_indices_np, np.int64)
+        e = np.sort(tris[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+        edges = np.unique(e, axis=0)
+        self.edge_count = len(edges)
+        self.edges_np = edges
+        self.edge = ti.Vector.field(2, ti.i32, shape=max(1, len(edges)))
+        self.edge.from_numpy(edges.astype(np.int32))
+        rest = model.initial_positions_np
+        self.margin0 = float(margin_m if margin_m is not None else 2.0 * thickness_m)
+
+        # seam partners, CSR: the particles each particle is sewn to
+        partners = [[] for _ in range(n)]
+        if model.seam_count:
+            for a, b in model.seam_pairs_np:
+                partners[a].append(b)
+                partners[b].append(a)
+        start = np.zeros(n + 1, np.int64)
+        start[1:] = np.cumsum([len(p) for p in partners])
+        flat = np.array([q for p in partners for q in p], np.int64)
+        self.partner_start = ti.field(ti.i32, shape=n + 1)
+        self.partner_start.from_numpy(start.astype(np.int32))
+        self.partner = ti.field(ti.i32, shape=max(1, len(flat)))
+        if len(flat):
+            self.partner.from_numpy(flat.astype(np.int32))
+
+        self.thickness = ti.field(float, shape=())
+        self.mu = ti.field(float, shape=())
+        self.margin = ti.field(float, shape=())
+        self.cell = ti.field(float, shape=())
+        self.thickness[None] = thickness_m
+        self.mu[None] = friction
+        self.margin[None] = self.margin0
+        self.mean_edge = float(np.linalg.norm(rest[edges[:, 0]] - rest[edges[:, 1]], axis=1).mean())
+
+        # hash grids: vertices by position, edges by midpoint (one entry each)
+        self.table = 1 << max(10, math.ceil(math.log2(4 * max(n, len(edges)))))
+        self.v_count = ti.field(ti.i32, shape=self.table)
+        self.v_start = ti.field(ti.i32, shape=self.table + 1)
+        self.v_entry = ti.field(ti.i32, shape=max(1, n))
+        self.e_count = ti.field(ti.i32, shape=self.table)
+        self.e_start = ti.field(ti.i32, shape=self.table + 1)
+        self.e_entry = ti.field(ti.i32, shape=max(1, len(edges)))
+        self.half_edge = ti.field(float, shape=())
+
+        self.capacity = PAIRS_PER_VERTEX * (n + len(edges)) + 1024
+        self.pair = ti.Vector.field(4, ti.i32, shape=self.capacity)
+        self.pair_kind = ti.field(ti.i32, shape=self.capacity)
+        self.pair_hit = ti.field(ti.i32, shape=self.capacity)
+        self.pair_count = ti.field(ti.i32, shape=())
+        self.overflow = ti.field(ti.i32, shape=())
+
+        self.x_build = ti.Vector.field(3, float, shape=max(1, n))
+        self.corr = ti.Vector.field(3, float, shape=max(1, n))  # position correction [m/s]
+        self.max_step = ti.field(float, shape=())
+        self.mean_shift = ti.Vector.field(3, float, shape=())
+        self.spread = ti.field(float, shape=())
+        self.unresolved = ti.field(ti.i32, shape=())
+        # counters since construction: rebuilds, CCD hits, steps that needed zones
+        self.rebuilds = ti.field(ti.i32, shape=())
+        self.ccd_hits = ti.field(ti.i64, shape=())
+        self.zone_steps = 0
+        self.needs_build = ti.field(ti.i32, shape=())
+        self.needs_build[None] = 1
+
+    # ------------------------------------------------------------------ grid helpers
+    @ti.func
+    def _cell_of(self, p):
+        return ti.floor(p / self.cell[None], ti.i32)
+
+    @ti.func
+    def _bucket(self, c):
+        h = (c[0] * 73856093) ^ (c[1] * 19349663) ^ (c[2] * 83492791)
+        return h & (self.table - 1)
+
+    @ti.func
+    def _partners(self, a, b):
+        """Is particle b sewn to particle a?"""
+        found = False
+        for k in range(self.partner_start[a], self.partner_start[a + 1]):
+            if self.partner[k] == b:
+                found = True
+        return found
+
+    @ti.func
+    def _excluded_vt(self, u, t):
+        return (
+            u == t[0] or u == t[1] or u == t[2]
+            or self._partners(u, t[0]) or self._partners(u, t[1]) or self._partners(u, t[2])
+        )  # fmt: skip
+
+    @ti.func
+    def _excluded_ee(self, a, b):
+        shared = a[0] == b[0] or a[0] == b[1] or a[1] == b[0] or a[1] == b[1]
+        sewn = (
+            self._partners(a[0], b[0]) or self._partners(a[0], b[1])
+            or self._partners(a[1], b[0]) or self._partners(a[1], b[1])
+        )  # fmt: skip
+        return shared or sewn
+
+    @ti.func
+    def _append(self, kind, idx):
+        slot = ti.atomic_add(self.pair_count[None], 1)
+        if slot < self.capacity:
+            self.pair[slot] = idx
+            self.pair_kind[slot] = kind
+        else:
+            self.overflow[None] = 1
+
+    # ------------------------------------------------------------------ per-step pieces
+    @ti.func
+    def _drift_from_build(self, x, v, dt, with_corr):
+        """max_i |x_i + dt v_i − x_b,i − c| with c the mean of those displacements [m].
+
+        Pair distances change only through relative motion, so the cloth moving as a whole
+        (falling) does not invalidate the candidate list.
+        """
+        n = self.model.particle_count
+        self.mean_shift[None] = ti.Vector([0.0, 0.0, 0.0])
+        for i in range(n):
+            u = x[i] + dt * v[i] - self.x_build[i]
+            if with_corr:
+                u += dt * self.corr[i]
+            self.mean_shift[None] += u / n
+        self.spread[None] = 0.0
+        for i in range(n):
+            u = x[i] + dt * v[i] - self.x_build[i]
+            if with_corr:
+                u += dt * self.corr[i]
+            ti.atomic_max(self.spread[None], (u - self.mean_shift[None]).norm())
+        return self.spread[None]
+
+    @ti.func
+    def prepare(self, x, v, dt):
+        """Start of the contact passes: clear corrections, decide whether to rebuild."""
+        self.max_step[None] = 0.0
+        for i in range(self.model.particle_count):
+            self.corr[i] = ti.Vector([0.0, 0.0, 0.0])
+            ti.atomic_max(self.max_step[None], dt * v[i].norm())
+        if self._drift_from_build(x, v, dt, False) > 0.4 * self.margin[None]:
+            self.needs_build[None] = 1
+
+    @ti.func
+    def rebuild(self, x):
+        """The candidate list at the current positions (call when ``needs_build``).
+
+        Two hash grids with one entry per item: vertices by position, edges by midpoint.
+        Each triangle looks for vertices in its box grown by the reach; each edge looks
+        for edges whose midpoint lies in its box grown by the reach plus half the longest
+        edge. Every pair is found once.
+        """
+        m = self.model
+        h = self.thickness[None]
+        # more steps per rebuild when the cloth moves fast, but never so far that pairs
+        # of neighbours in the cloth's own plane enter the list
+        grown = ti.min(MARGIN_STEPS * self.max_step[None], 0.5 * self.mean_edge)
+        self.margin[None] = ti.max(self.margin0, grown)
+        reach = h + self.margin[None]
+        self.cell[None] = CELL_SCALE * ti.max(self.mean_edge, reach)
+        self.half_edge[None] = 0.0
+        for i in range(m.particle_count):
+            self.x_build[i] = x[i]
+        for e in range(self.edge_count):
+            length = (x[self.edge[e][0]] - x[self.edge[e][1]]).norm()
+            ti.atomic_max(self.half_edge[None], 0.5 * length)
+        for b in range(self.table):
+            self.v_count[b] = 0
+            self.e_count[b] = 0
+        for i in range(m.particle_count):
+            ti.atomic_add(self.v_count[self._bucket(self._cell_of(x[i]))], 1)
+        for e in range(self.edge_count):
+            mid = 0.5 * (x[self.edge[e][0]] + x[self.edge[e][1]])
+            ti.atomic_add(self.e_count[self._bucket(self._cell_of(mid))], 1)
+        for _ in range(1):  # prefix sums, serial
+            self.v_start[0] = 0
+            self.e_start[0] = 0
+            for b in range(self.table):
+                self.v_start[b + 1] = self.v_start[b] + self.v_count[b]
+                self.e_start[b + 1] = self.e_start[b] + self.e_count[b]
+                self.v_count[b] = 0
+                self.e_count[b] = 0
+        for i in range(m.particle_count):
+            b = self._bucket(self._cell_of(x[i]))
+            self.v_entry[self.v_start[b] + ti.atomic_add(self.v_count[b], 1)] = i
+        for e in range(self.edge_count):
+            mid = 0.5 * (x[self.edge[e][0]] + x[self.edge[e][1]])
+            b = self._bucket(self._cell_of(mid))
+            self.e_entry[self.e_start[b] + ti.atomic_add(self.e_count[b], 1)] = e
+        self.pair_count[None] = 0
+        # vertex-triangle
+        for t in range(m.tri_count):
+            tv = m.tri_indices[t]
+            a, b, c = x[tv[0]], x[tv[1]], x[tv[2]]
+            lo = self._cell_of(ti.min(a, b, c) - reach)
+            hi = self._cell_of(ti.max(a, b, c) + reach)
+            for i, j, k in ti.ndrange((lo[0], hi[0] + 1), (lo[1], hi[1] + 1), (lo[2], hi[2] + 1)):
+                cid = ti.Vector([i, j, k])
+                bk = self._bucket(cid)
+                for s in range(self.v_start[bk], self.v_start[bk + 1]):
+                    u = self.v_entry[s]
+                    if (self._cell_of(x[u]) == cid).all() and not self._excluded_vt(u, tv):
+                        w = point_triangle_closest(x[u], a, b, c)
+                        q = w[0] * a + w[1] * b + w[2] * c
+                        if (x[u] - q).norm() < reach:
+                            self._append(KIND_VT, ti.Vector([u, tv[0], tv[1], tv[2]]))
+        # edge-edge
+        grow = reach + self.half_edge[None]
+        for e in range(self.edge_count):
+            ea = self.edge[e]
+            p0, p1 = x[ea[0]], x[ea[1]]
+            box_lo, box_hi = ti.min(p0, p1) - reach, ti.max(p0, p1) + reach
+            lo = self._cell_of(ti.min(p0, p1) - grow)
+            hi = self._cell_of(ti.max(p0, p1) + grow)
+            for i, j, k in ti.ndrange((lo[0], hi[0] + 1), (lo[1], hi[1] + 1), (lo[2], hi[2] + 1)):
+                cid = ti.Vector([i, j, k])
+                bk = self._bucket(cid)
+                for s in range(self.e_start[bk], self.e_start[bk + 1]):
+                    f = self.e_entry[s]
+                    if f > e:
+                        eb = self.edge[f]
+                        q0, q1 = x[eb[0]], x[eb[1]]
+                        near = (ti.min(q0, q1) <= box_hi).all() and (ti.max(q0, q1) >= box_lo).all()
+                        own = (self._cell_of(0.5 * (q0 + q1)) == cid).all()
+                        if near and own and not self._excluded_ee(ea, eb):
+                            sa, sb = segment_segment_closest(p0, p1, q0, q1)
+                            d = (p0 + sa * (p1 - p0)) - (q0 + sb * (q1 - q0))
+                            if d.norm() < reach:
+                                self._append(KIND_EE, ti.Vector([ea[0], ea[1], eb[0], eb[1]]))
+        self.needs_build[None] = 0
+        self.rebuilds[None] += 1
+
+    @ti.func
+    def _geometry(self, kind, p0, p1, p2, p3):
+        """Barycentric weights W (4,) and the vector between the pair's closest points."""
+        W = ti.Vector([0.0, 0.0, 0.0, 0.0])
+        if kind == KIND_VT:
+            w = point_triangle_closest(p0, p1, p2, p3)
+            W = ti.Vector([1.0, -w[0], -w[1], -w[2]])
+        else:
+            s, t = segment_segment_closest(p0, p1, p2, p3)
+            W = ti.Vector([1.0 - s, s, -(1.0 - t), -t])
+        d = W[0] * p0 + W[1] * p1 + W[2] * p2 + W[3] * p3
+        return W, d
+
+    @ti.func
+    def _fallback_normal(self, kind, p0, p1, p2, p3):
+        n = (p2 - p1).cross(p3 - p1)  # vertex-triangle: the face normal
+        if kind == KIND_EE:
+            n = (p1 - p0).cross(p3 - p2)
+        return n / ti.max(n.norm(), 1e-30)
+
+    @ti.func
+    def _apply(self, idx, W, J, v):
+        """v_i += W_i m_i^-1 J for the pair's four vertices."""
+        for k in ti.static(range(4)):
+            v[idx[k]] += W[k] * self.model.particle_inv_mass[idx[k]] * J
+
+    @ti.func
+    def _denominator(self, idx, W):
+        s = 0.0
+        for k in ti.static(range(4)):
+            s += W[k] * W[k] * self.model.particle_inv_mass[idx[k]]
+        return s
+
+    @ti.func
+    def proximity(self, x, v, dt):
+        """Pass 1: inelastic impulse, friction and separation for pairs closer than h."""
+        h = self.thickness[None]
+        for _ in range(1):  # serial: impulses of one pair are seen by the next
+            for p in range(ti.min(self.pair_count[None], self.capacity)):
+                idx = self.pair[p]
+                kind = self.pair_kind[p]
+                p0, p1, p2, p3 = x[idx[0]], x[idx[1]], x[idx[2]], x[idx[3]]
+                W, d = self._geometry(kind, p0, p1, p2, p3)
+                dist = d.norm()
+                denom = self._denominator(idx, W)
+                if dist < h and denom > 0.0:
+                    n = self._fallback_normal(kind, p0, p1, p2, p3)
+                    if dist > 1e-6 * h:
+                        n = d / dist
+                    vr = W[0] * v[idx[0]] + W[1] * v[idx[1]] + W[2] * v[idx[2]] + W[3] * v[idx[3]]
+                    vn = vr.dot(n)
+                    dvn = ti.max(0.0, -vn)  # inelastic: stop the approach
+                    vt = vr - vn * n
+                    vt_len = vt.norm()
+                    dvt = ti.Vector([0.0, 0.0, 0.0])
+                    if vt_len > 0.0:  # Coulomb friction from the normal impulse
+                        dvt = -ti.min(self.mu[None] * dvn / vt_len, 1.0) * vt
+                    self._apply(idx, W, (dvn * n + dvt) / denom, v)
+                    if dt > 0.0:
+                        extra = SEPARATION_FRACTION * (h - dist) - dt * ti.max(vn + dvn, 0.0)
+                        if extra > 0.0:
+                            self._apply(idx, W, extra / dt / denom * n, self.corr)
+
+    @ti.func
+    def _collision(self, kind, idx, x, v, dt):
+        """First contact of the pair along the step: (hit, W, n, g0) or hit = False.
+
+        g0 is the pair's normal distance at the start (>= 0 along n).
+        """
+        x0, x1, x2, x3 = x[idx[0]], x[idx[1]], x[idx[2]], x[idx[3]]
+        u0 = dt * (v[idx[0]] + self.corr[idx[0]])
+        u1 = dt * (v[idx[1]] + self.corr[idx[1]])
+        u2 = dt * (v[idx[2]] + self.corr[idx[2]])
+        u3 = dt * (v[idx[3]] + self.corr[idx[3]])
+        W0, d0 = self._geometry(kind, x0, x1, x2, x3)
+        reach = u0.norm() + ti.max(u1.norm(), u2.norm(), u3.norm())
+        if kind == KIND_EE:
+            reach = ti.max(u0.norm(), u1.norm()) + ti.max(u2.norm(), u3.norm())
+        hit = False
+        W = W0
+        n = ti.Vector([0.0, 0.0, 0.0])
+        g0 = 0.0
+        h = self.thickness[None]
+        eps = 1e-6 + 1e-3 * h
+        if reach >= d0.norm() - eps:  # otherwise the pair cannot meet during the step
+            roots, count = coplanar_times(x0, x1, x2, x3, u0, u1, u2, u3)
+            for r in range(3):
+                if r < count and not hit:
+                    t = roots[r]
+                    y0, y1, y2, y3 = x0 + t * u0, x1 + t * u1, x2 + t * u2, x3 + t * u3
+                    Wt, dt_vec = self._geometry(kind, y0, y1, y2, y3)
+                    if dt_vec.norm() < eps:
+                        hit = True
+                        W = Wt
+                        n = self._fallback_normal(kind, y0, y1, y2, y3)
+                        start = W[0] * x0 + W[1] * x1 + W[2] * x2 + W[3] * x3
+                        if n.dot(start) < 0.0:
+                            n = -n
+                        g0 = n.dot(start)
+        return hit, W, n, g0
+
+    @ti.func
+    def continuous(self, x, v, dt):
+        """Pass 2: CCD with inelastic impulses, repeated; sets ``unresolved``."""
+        h = self.thickness[None]
+        self.unresolved[None] = 0
+        for _ in range(1):  # serial
+            remaining = 1
+            passes = 0
+            while remaining > 0 and passes < CCD_PASSES and dt > 0.0:
+                remaining = 0
+                passes += 1
+                for p in range(ti.min(self.pair_count[None], self.capacity)):
+                    idx = self.pair[p]
+                    hit, W, n, g0 = self._collision(self.pair_kind[p], idx, x, v, dt)
+                    denom = self._denominator(idx, W)
+                    if hit and denom > 0.0:
+                        ur = ti.Vector([0.0, 0.0, 0.0])
+                        for k in ti.static(range(4)):
+                            ur += W[k] * dt * (v[idx[k]] + self.corr[idx[k]])
+                        gap = ti.min(CCD_GAP_FRACTION * h, 0.5 * g0)
+                        need = (gap - g0 - ur.dot(n)) / dt  # normal velocity change
+                        if need > 0.0:
+                            self._apply(idx, W, need / denom * n, v)
+                            remaining += 1
+                            self.ccd_hits[None] += 1
+            if remaining > 0:
+                self.unresolved[None] = remaining
+        # the candidate list covers the step only if no vertex ends beyond margin / 2
+        if self._drift_from_build(x, v, dt, True) > 0.5 * self.margin[None]:
+            self.needs_build[None] = 1
+
+    @ti.func
+    def respond(self, x, v, dt):
+        """All passes for one step; returns True if the step is resolved.
+
+        False means impact zones are needed (:meth:`resolve_zones`) or the candidate list
+        no longer covers the motion (``needs_build``; rebuild, then respond again).
+        """
+        self.prepare(x, v, dt)
+        if self.needs_build[None]:
+            self.rebuild(x)
+        self.proximity(x, v, dt)
+        self.continuous(x, v, dt)
+        return self.unresolved[None] == 0 and self.needs_build[None] == 0
+
+    # ------------------------------------------------------------------ Python side
+    @ti.kernel
+    def _respond_kernel(self, x: ti.template(), v: ti.template(), dt: float) -> ti.i32:
+        ok = self.respond(x, v, dt)
+        return 1 if ok else 0
+
+    @ti.kernel
+    def _rebuild_kernel(self, x: ti.template()):
+        self.rebuild(x)
+
+    @ti.kernel
+    def _mark_kernel(self, x: ti.template(), v: ti.template(), dt: float) -> ti.i32:
+        hits = 0
+        for p in range(ti.min(self.pair_count[None], self.capacity)):
+            hit, W, n, g0 = self._collision(self.pair_kind[p], self.pair[p], x, v, dt)
+            self.pair_hit[p] = 1 if hit else 0
+            if hit:
+                hits += 1
+        return hits
+
+    def check_capacity(self):
+        if self.overflow[None]:
+            raise SandboxError(
+                f"self-collision: more than {self.capacity} candidate pairs; the cloth is "
+                "crumpled far beyond its thickness (lower margin_m or check the start shape)"
+            )
+
+    def resolve(self, state_x, state_v, dt: float) -> None:
+        """Python driver for one step (used when steps are launched one by one)."""
+        ok = self._respond_kernel(state_x, state_v, dt)
+        self.check_capacity()
+        tries = 0
+        while not ok and tries < 3:
+            tries += 1
+            if self.needs_build[None]:
+                self._rebuild_kernel(state_x)  # margin from this step's motion
+                self.check_capacity()
+            ok = self._respond_kernel(state_x, state_v, dt)
+        if not ok:
+            self.resolve_zones(state_x, state_v, dt)
+
+    def resolve_zones(self, state_x, state_v, dt: float) -> None:
+        """Rigid impact zones (Bridson et al. 2002 §7.4) until no candidate pair collides."""
+        model = self.model
+        n = model.particle_count
+        inv_m = model.particle_inv_mass.to_numpy()[:n].astype(np.float64)
+        mass = model.particle_mass.to_numpy()[:n].astype(np.float64)
+        parent = np.arange(n)
+
+        def find(a):
+            while parent[a] != a:
+                parent[a] = parent[parent[a]]
+                a = parent[a]
+            return a
+
+        in_zone = np.zeros(n, bool)
+        ftype = runtime.float_dtype()
+        x = state_x.to_numpy()[:n].astype(np.float64)
+        for _ in range(ZONE_ROUNDS):
+            hits = self._mark_kernel(state_x, state_v, dt)
+            if hits == 0:
+                return
+            if not in_zone.any():
+                self.zone_steps += 1
+            count = min(int(self.pair_count[None]), self.capacity)
+            flags = self.pair_hit.to_numpy()[:count].astype(bool)
+            quads = self.pair.to_numpy()[:count][flags]
+            for q in quads:
+                r0 = find(q[0])
+                for k in q[1:]:
+                    rk = find(k)
+                    if rk != r0:
+                        parent[rk] = r0
+                in_zone[q] = True
+            v = state_v.to_numpy()[:n].astype(np.float64)
+            corr = self.corr.to_numpy()[:n].astype(np.float64)
+            v_eff = v + corr
+            members = np.nonzero(in_zone)[0]
+            roots = np.array([find(a) for a in members])
+            for root in np.unique(roots):
+                z = members[roots == root]
+                v_eff[z] = _rigid_velocity(x[z], v_eff[z], mass[z], inv_m[z])
+            corr[members] = 0.0
+            v[members] = v_eff[members]
+            state_v.from_numpy(v.astype(ftype))
+            self.corr.from_numpy(corr.astype(ftype))
+        raise SandboxError("self-collision: rigid impact zones did not resolve the step")
+
+
+def _rigid_velocity(x, v, m, inv_m):
+    """Velocities (k, 3) of a rigid motion with the zone's linear and angular momentum.
+
+    A zone holding a pinned vertex (inverse mass 0) stands still.
+    """
+    if np.any(inv_m == 0):
+        return np.zeros_like(v)
+    mt = m.sum()
+    xc = (m[:, None] * x).sum(0) / mt
+    vc = (m[:, None] * v).sum(0) / mt
+    r = x - xc
+    L = (m[:, None] * np.cross(r, v - vc)).sum(0)
+    outer = (m[:, None, None] * r[:, :, None] * r[:, None, :]).sum(0)
+    inertia = (m * (r * r).sum(1)).sum() * np.eye(3) - outer
+    w = np.linalg.lstsq(inertia, L, rcond=None)[0]
+    return vc + np.cross(w, r)
