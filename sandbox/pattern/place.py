@@ -130,8 +130,8 @@ class PlacementBody:
         self.vertices = np.asarray(mannequin.vertices, float)
         self.triangles = np.asarray(mannequin.triangles, np.int64)
         self.landmarks = {k: np.asarray(v, float) for k, v in mannequin.landmarks.items()}
-        self.feature_lines = {k: np.asarray(v, float)
-                              for k, v in (getattr(mannequin, "feature_lines", None) or {}).items()}  # fmt: skip
+        lines = getattr(mannequin, "feature_lines", None) or {}
+        self.feature_lines = {k: np.asarray(v, float) for k, v in lines.items()}
         self.limbs = _limb_masks(mannequin, self.vertices, self.landmarks)
         arms = self.limbs["arm_left"] | self.limbs["arm_right"]
         x = self.vertices[:, 0]
@@ -356,8 +356,9 @@ def place_pattern(pattern, meshes: dict, mannequin) -> dict[str, np.ndarray]:
         if "translation" not in p:
             by_part.setdefault(p.get("body", "torso"), []).append(name)
     heights = {
-        part: float(np.mean([body.point(pattern.panels[n].placement["landmark"])[1]
-                             for n in names]))  # fmt: skip
+        part: float(
+            np.mean([body.point(pattern.panels[n].placement["landmark"])[1] for n in names])
+        )  # fmt: skip
         for part, names in by_part.items()
     }
     angles = {}
@@ -374,7 +375,8 @@ def place_pattern(pattern, meshes: dict, mannequin) -> dict[str, np.ndarray]:
             out[name] = place_panel(pts, p, body, panel.units_to_m, where=at)
             continue
         part = p.get("body", "torso")
-        others = [angles[o] for o in by_part[part] if abs(_wrap_pi(angles[o] - angles[name])) > 1e-3]
+        mine = angles[name]
+        others = [angles[o] for o in by_part[part] if abs(_wrap_pi(angles[o] - mine)) > 1e-3]
         if others:
             after = min(np.mod(o - angles[name], 2 * np.pi) for o in others) / 2
             before = min(np.mod(angles[name] - o, 2 * np.pi) for o in others) / 2
