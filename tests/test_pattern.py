@@ -335,6 +335,47 @@ def test_panel_mesh_quality_and_edges(h):
     assert m.grain_rad == pytest.approx(math.pi / 2)
 
 
+def _point_to_polyline(q, poly):
+    a, b = poly[:-1], poly[1:]
+    t = np.clip(np.sum((q - a) * (b - a), axis=1) / np.sum((b - a) ** 2, axis=1), 0, 1)
+    return float(np.min(np.linalg.norm(a + t[:, None] * (b - a) - q, axis=1)))
+
+
+def test_panel_mesh_grades_towards_tiny_edges():
+    # a 1 mm edge (GarmentCode patterns have such) between 20 cm edges, and a cubic hem
+    d = {
+        "format": "sandbox-pattern/1",
+        "panels": {
+            "p": {
+                "vertices": [[0, 0], [40, 0], [40, 50], [20.1, 50], [20, 50], [0, 50]],
+                "edges": [{"name": "hem", "from": 0, "to": 1,
+                           "curve": {"type": "cubic", "controls": [[10, -5], [30, -5]]}}]
+                + [{"from": i, "to": (i + 1) % 6} for i in range(1, 6)],
+            }
+        },
+    }  # fmt: skip
+    panel = load_pattern(d).panels["p"]
+    h = 0.02
+    m = mesh_panel(panel, h)
+    assert min_angle_deg(m.points, m.triangles) >= 25.0
+    assert len(m.edge_vertices[3]) == 2  # the tiny edge: its two corners, nothing inside
+    for e, idx in zip(panel.edges, m.edge_vertices, strict=True):
+        q = m.points[idx]
+        dense = e.sample(h / 50)
+        assert max(_point_to_polyline(x, dense) for x in q) < 1e-6  # on the edge
+        s = [int(np.argmin(np.linalg.norm(dense - x, axis=1))) for x in q]
+        assert np.all(np.diff(s) > 0)  # in order from start to end
+        seg = np.linalg.norm(np.diff(q, axis=0), axis=1)
+        assert seg.max() <= h * (1 + 1e-6)
+    # next to the tiny edge the segments grow gradually (at most ~20 % + rounding)
+    seg = np.linalg.norm(np.diff(m.points[m.edge_vertices[2]], axis=0), axis=1)
+    assert seg[-1] < 0.0015 and np.all(seg[:-1] / seg[1:] < 1.35)
+    along = set()
+    for idx in m.edge_vertices:
+        along |= {tuple(sorted(x)) for x in zip(idx[:-1], idx[1:], strict=True)}
+    assert along == _boundary_edges(m.triangles)
+
+
 def test_seam_sides_build_springs():
     from sandbox.sim.builder import ModelBuilder
     from sandbox.sim.materials import material_from_spec
@@ -450,6 +491,48 @@ def test_garmentcode_mirrored_panel_keeps_world_shape_of_curves():
     pm = back.placement_m
     ours_world = np.c_[ours, np.zeros(5)] @ rotation_matrix_xyz_deg(pm["rotation_deg"]).T
     np.testing.assert_allclose(ours_world + pm["translation_m"], ref_world, atol=1e-12)
+
+
+def _gc_square(curvature=(0.5, -0.1), **props):
+    edge = {"endpoints": [1, 2], "curvature": list(curvature)}
+    return {
+        "pattern": {
+            "panels": {
+                "sq": {
+                    "translation": [1.0, 2.0, 3.0],
+                    "rotation": [0, 90, 0],
+                    "vertices": [[0, 0], [10, 0], [10, 10], [0, 10]],
+                    "edges": [
+                        {"endpoints": [0, 1],
+                         "curvature": {"type": "circle", "params": [6.0, 1, 1]}},
+                        edge,
+                        {"endpoints": [2, 3]},
+                        {"endpoints": [3, 0]},
+                    ],
+                }
+            },
+            "stitches": [],
+        },
+        "properties": {"units_in_meter": 100, **props},
+    }  # fmt: skip
+
+
+def test_garmentcode_absolute_curvature_large_arc_and_centring():
+    d = garmentcode_to_dict(_gc_square([11.0, 5.0], curvature_coords="absolute"))
+    p = load_pattern(d)
+    e0, e1 = p.panels["sq"].edges[:2]
+    # large arc of radius 6 on a chord of 10, bulging to the right (downwards, outside)
+    r, c = 6.0, 10.0
+    assert e0.sagitta_m * 100 == pytest.approx(-(r + math.sqrt(r * r - c * c / 4)), rel=1e-12)
+    np.testing.assert_allclose(e1.controls_m[0], [0.11, 0.05])  # absolute [11, 5] cm
+    d = garmentcode_to_dict(_gc_square(normalize_panel_translation=True))
+    pl = d["panels"]["sq"]
+    np.testing.assert_allclose(np.mean(pl["vertices"], axis=0), [0, 0], atol=1e-12)
+    np.testing.assert_allclose(pl["placement"]["translation"], [6.0, 7.0, 3.0])
+    np.testing.assert_allclose(pl["placement"]["rotation_deg"], [0, 90, 0], atol=1e-12)
+    # relative [0.5, -0.1]: start + 0.5 d - 0.1 perp(d), perp(x, y) = (-y, x)
+    d = garmentcode_to_dict(_gc_square())
+    np.testing.assert_allclose(d["panels"]["sq"]["edges"][1]["curve"]["control"], [11, 5])
 
 
 def test_garmentcode_cli_and_errors(tmp_path, capsys):

@@ -111,6 +111,24 @@ def curve_length(kind: str, p0, p1, *, sagitta: float = 0.0, controls=()) -> flo
     raise ValueError(f"unknown curve kind {kind!r}; known: {', '.join(KINDS)}")
 
 
+def points_at_lengths(
+    kind: str, p0, p1, s, *, sagitta: float = 0.0, controls=(), length: float | None = None
+) -> np.ndarray:
+    """Points (len(s), 2) [m] at arc lengths ``s`` [m] from p0 along the edge (0 <= s <= L)."""
+    p0, p1 = np.asarray(p0, float), np.asarray(p1, float)
+    if length is None:
+        length = curve_length(kind, p0, p1, sagitta=sagitta, controls=controls)
+    u = np.asarray(s, float) / length
+    if kind == "line" or (kind == "arc" and sagitta == 0.0):
+        return p0 + (p1 - p0) * u[:, None]
+    if kind == "arc":
+        centre, r, phi0, sweep = arc_geometry(p0, p1, sagitta)
+        ang = phi0 + sweep * u
+        return centre + r * np.stack([np.cos(ang), np.sin(ang)], axis=1)
+    nodes = _bezier_nodes(p0, p1, controls)
+    return bezier_point(nodes, _bezier_params_at_lengths(nodes, u * length))
+
+
 def sample_curve(
     kind: str, p0, p1, max_segment_m: float, *, sagitta: float = 0.0, controls=()
 ) -> np.ndarray:
@@ -119,21 +137,45 @@ def sample_curve(
     k = ceil(L / max_segment_m), so every segment (a chord of an arc piece of length L / k) is
     at most ``max_segment_m`` long.
     """
-    p0, p1 = np.asarray(p0, float), np.asarray(p1, float)
     if not (max_segment_m > 0 and math.isfinite(max_segment_m)):
         raise ValueError(f"max_segment_m must be positive, got {max_segment_m}")
     length = curve_length(kind, p0, p1, sagitta=sagitta, controls=controls)
     k = max(1, math.ceil(length / max_segment_m - 1e-9))
-    u = np.linspace(0.0, 1.0, k + 1)
-    if kind == "line" or (kind == "arc" and sagitta == 0.0):
-        pts = p0 + (p1 - p0) * u[:, None]
-    elif kind == "arc":
-        centre, r, phi0, sweep = arc_geometry(p0, p1, sagitta)
-        ang = phi0 + sweep * u
-        pts = centre + r * np.stack([np.cos(ang), np.sin(ang)], axis=1)
-    else:
-        nodes = _bezier_nodes(p0, p1, controls)
-        pts = bezier_point(nodes, _bezier_params_at_lengths(nodes, u * length))
+    s = length * np.linspace(0.0, 1.0, k + 1)
+    return _exact_ends(
+        points_at_lengths(kind, p0, p1, s, sagitta=sagitta, controls=controls, length=length),
+        p0,
+        p1,
+    )
+
+
+def sample_curve_graded(
+    kind: str, p0, p1, max_segment_m: float, start_m: float, end_m: float, *,
+    growth: float = 0.2, sagitta: float = 0.0, controls=(),
+) -> np.ndarray:  # fmt: skip
+    """Like :func:`sample_curve`, but segments shrink towards shorter neighbours at the ends.
+
+    The target spacing along the edge is h(s) = min(h, start_m + growth s, end_m +
+    growth (L - s)) with h the even spacing of :func:`sample_curve`; points are placed at
+    equal steps of ∫ ds / h. When neither end needs a shorter segment the result is exactly
+    :func:`sample_curve`'s. Every segment is at most ``max_segment_m`` long.
+    """
+    length = curve_length(kind, p0, p1, sagitta=sagitta, controls=controls)
+    k = max(1, math.ceil(length / max_segment_m - 1e-9))
+    h = length / k
+    if start_m >= h * (1 - 1e-9) and end_m >= h * (1 - 1e-9):
+        return sample_curve(kind, p0, p1, max_segment_m, sagitta=sagitta, controls=controls)
+    grid = np.linspace(0.0, length, 4097)
+    size = np.minimum(h, np.minimum(start_m + growth * grid, end_m + growth * (length - grid)))
+    inv = 1.0 / size
+    cum = np.concatenate([[0.0], np.cumsum(0.5 * (inv[1:] + inv[:-1]) * np.diff(grid))])
+    n = max(1, math.ceil(cum[-1] - 1e-9))
+    s = np.interp(np.linspace(0.0, cum[-1], n + 1), cum, grid)
+    pts = points_at_lengths(kind, p0, p1, s, sagitta=sagitta, controls=controls, length=length)
+    return _exact_ends(pts, p0, p1)
+
+
+def _exact_ends(pts: np.ndarray, p0, p1) -> np.ndarray:
     pts[0], pts[-1] = p0, p1  # exact shared corners
     return pts
 

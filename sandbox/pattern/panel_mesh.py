@@ -1,7 +1,8 @@
 """Mesh pattern panels and resolve seams to mesh vertices (paper §2.1 grids, §2.4 seams).
 
 Each edge of a panel is sampled evenly by arc length (no segment longer than the target
-edge length); the samples are the panel's whole boundary. A constrained quality Delaunay
+edge length; graded towards much shorter neighbouring edges); the samples are the panel's
+whole boundary. A constrained quality Delaunay
 triangulation (Shewchuk's Triangle, switch ``Y``: no Steiner point on the boundary) fills
 the inside, so the vertices of every edge are known exactly: ``edge_vertices[k]`` lists them
 from the edge's start to its end, corners shared with the neighbouring edges.
@@ -16,10 +17,14 @@ import numpy as np
 import triangle as tr
 
 from sandbox.errors import SandboxError
+from sandbox.pattern import curves
 from sandbox.pattern.mesh2d import morton_order, orient_ccw
 from sandbox.pattern.spec import Panel, Pattern
 
 DEFAULT_EDGE_M = 0.01
+GRADING = 0.2
+GRADE_BELOW = 0.6
+"""Boundary segments grow by at most this fraction per segment away from a tiny edge."""
 MIN_ANGLE_DEG = 28.0
 """Requested minimum angle; Triangle reaches it except next to sharper outline corners."""
 
@@ -66,7 +71,7 @@ def mesh_panel(
     where = where or f"panel {panel.name!r}"
     if not (edge_length_m > 0 and math.isfinite(edge_length_m)):
         raise SandboxError(f"{where}: edge length must be a positive number, got {edge_length_m}")
-    samples = [e.sample(edge_length_m) for e in panel.edges]
+    samples = _sample_edges(panel, edge_length_m)
     boundary = np.vstack([s[:-1] for s in samples])
     nb = len(boundary)
     starts = np.cumsum([0] + [len(s) - 1 for s in samples])
@@ -117,6 +122,35 @@ def mesh_panel(
         boundary=rank[np.arange(nb)],
         grain_rad=panel.grain_rad,
     )
+
+
+def _sample_edges(panel: Panel, h: float) -> list[np.ndarray]:
+    """Boundary samples of every edge: even by arc length (``Edge.sample``), except that an
+    edge whose neighbour ends in a segment shorter than GRADE_BELOW times its own spacing is
+    graded towards it (growth GRADING per segment), so tiny edges (GarmentCode has some
+    under 1 mm) keep the mesh quality although no boundary segment may be split."""
+    edges, n = panel.edges, len(panel.edges)
+    out = [e.sample(h) for e in edges]
+    for _ in range(3):  # grading changes end segments, which may call for more grading
+        first = [float(np.linalg.norm(q[1] - q[0])) for q in out]
+        last = [float(np.linalg.norm(q[-1] - q[-2])) for q in out]
+        spacing = [e.length_m / max(1, math.ceil(e.length_m / h - 1e-9)) for e in edges]
+        changed = False
+        for k, e in enumerate(edges):
+            start, end = last[(k - 1) % n], first[(k + 1) % n]
+            start = start if start < GRADE_BELOW * spacing[k] else np.inf
+            end = end if end < GRADE_BELOW * spacing[k] else np.inf
+            if np.isinf(start) and np.isinf(end):
+                continue
+            q = curves.sample_curve_graded(
+                e.kind, e.p0_m, e.p1_m, h, start, end, growth=GRADING,
+                sagitta=e.sagitta_m, controls=e.controls_m,
+            )  # fmt: skip
+            changed = changed or len(q) != len(out[k]) or not np.allclose(q, out[k])
+            out[k] = q
+        if not changed:
+            break
+    return out
 
 
 def mesh_pattern(pattern: Pattern, edge_length_m: float | None = None) -> dict[str, PanelMesh]:

@@ -82,7 +82,7 @@ class Edge:
     ``kind`` is "line", "arc", "quadratic" or "cubic"; ``sagitta_m`` [m] is used by arcs
     (positive = the arc bulges to the left of start -> end), ``controls_m`` (c, 2) [m] are the
     Bézier control points in panel coordinates (c = 0, 1 or 2). ``p0_m``, ``p1_m`` (2,) [m]
-    are the end points.
+    are copies of the end points (``Panel.sync_edges()`` refreshes them after an edit).
     """
 
     name: str
@@ -172,6 +172,12 @@ class Panel:
             f"{where}panel {self.name!r} has no edge named {ref!r}; "
             f"its edges: {', '.join(e.name for e in self.edges)}"
         )
+
+    def sync_edges(self) -> None:
+        """Copy ``vertices_m`` into the edges' end points (after editing the vertices)."""
+        for e in self.edges:
+            e.p0_m = self.vertices_m[e.start].copy()
+            e.p1_m = self.vertices_m[e.end].copy()
 
     def outline(self, max_segment_m: float) -> np.ndarray:
         """Closed boundary polyline (n, 2) [m] (first point not repeated)."""
