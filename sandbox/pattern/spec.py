@@ -130,8 +130,9 @@ class Panel:
     def placement_m(self) -> dict:
         """The placement with lengths in metres.
 
-        Body form: ``body``, ``side``, ``landmark``, ``anchor_m`` (2,), ``offset_m`` (3,)
-        (default 0), ``clearance_m`` (default 0.02), and ``wrap`` if given. Explicit form:
+        Body form: ``body`` (default "torso"), ``side``, ``landmark``, ``anchor_m`` (2,),
+        ``offset_m`` (3,) (default 0), ``clearance_m`` (default 0.02), ``wrap`` (default
+        True, the placer's default). Explicit form:
         ``translation_m`` (3,), ``rotation_deg`` (3,) (default 0). Empty if no placement.
         """
         p, u = self.placement, self.units_to_m
@@ -143,15 +144,14 @@ class Panel:
                 "rotation_deg": np.asarray(p.get("rotation_deg", (0.0, 0.0, 0.0)), float),
             }
         out = {
-            "body": p["body"],
+            "body": p.get("body", "torso"),
             "side": p["side"],
             "landmark": p["landmark"],
             "anchor_m": np.asarray(p["anchor"], float) * u,
             "offset_m": np.asarray(p.get("offset", (0.0, 0.0, 0.0)), float) * u,
             "clearance_m": float(p["clearance"]) * u if "clearance" in p else 0.02,
         }
-        if "wrap" in p:
-            out["wrap"] = bool(p["wrap"])
+        out["wrap"] = bool(p.get("wrap", True))
         return out
 
     def edge_index(self, ref, *, where: str = "") -> int:
@@ -597,9 +597,8 @@ class _Reader:
             if "rotation_deg" in t:
                 self.point(t["rotation_deg"], f"{pa}: 'rotation_deg'", 3)
             return t
-        self.keys(t, f"{pa} (body form)", BODY_PLACEMENT_KEYS, ("body", "side", "anchor",
-                                                                 "landmark"))  # fmt: skip
-        if t["body"] not in BODIES:
+        self.keys(t, f"{pa} (body form)", BODY_PLACEMENT_KEYS, ("side", "anchor", "landmark"))
+        if t.get("body", "torso") not in BODIES:
             self.fail(f"{pa}: unknown body {t['body']!r}; use one of {', '.join(BODIES)}")
         if t["side"] not in SIDES:
             self.fail(f"{pa}: unknown side {t['side']!r}; use one of {', '.join(SIDES)}")
