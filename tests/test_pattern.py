@@ -189,6 +189,55 @@ def test_bad_input_messages(case):
     assert expected in msg, msg
 
 
+def _scaled(d, f):
+    """The skirt with every length multiplied by f."""
+    d = copy.deepcopy(d)
+    d["mesh_edge"] *= f
+    for p in d["panels"].values():
+        p["vertices"] = [[x * f, y * f] for x, y in p["vertices"]]
+        for e in p["edges"]:
+            c = e.get("curve", {})
+            if "sagitta" in c:
+                c["sagitta"] *= f
+            if "control" in c:
+                c["control"] = [v * f for v in c["control"]]
+        pl = p["placement"]
+        pl["anchor"] = [v * f for v in pl["anchor"]]
+        if "clearance" in pl:
+            pl["clearance"] *= f
+    return d
+
+
+@pytest.mark.parametrize("units, f", [("mm", 10.0), ("m", 0.01)])
+def test_units(units, f):
+    ref = load_pattern(SKIRT)
+    d = _scaled(skirt_dict(), f)
+    d["units"] = units
+    p = load_pattern(d)
+    assert p.mesh_edge_m == pytest.approx(ref.mesh_edge_m)
+    for name, panel in p.panels.items():
+        r = ref.panels[name]
+        np.testing.assert_allclose(panel.vertices_m, r.vertices_m, rtol=1e-12)
+        for e, g in zip(panel.edges, r.edges, strict=True):
+            assert e.length_m == pytest.approx(g.length_m, rel=1e-12)
+        np.testing.assert_allclose(panel.placement_m["anchor_m"], r.placement_m["anchor_m"])
+        assert panel.placement_m["clearance_m"] == pytest.approx(0.02)
+        assert panel.placement["anchor"] == d["panels"][name]["placement"]["anchor"]  # raw
+
+
+def test_two_vertex_panel_with_arcs_and_degenerate_ones():
+    lens = {"format": "sandbox-pattern/1", "panels": {"lens": {"vertices": [[0, 0], [20, 0]],
+            "edges": [{"from": 0, "to": 1, "curve": {"type": "arc", "sagitta": -5}},
+                      {"from": 1, "to": 0, "curve": {"type": "arc", "sagitta": -5}}]}}}  # fmt: skip
+    m = mesh_panel(load_pattern(lens).panels["lens"], 0.01)
+    assert min_angle_deg(m.points, m.triangles) >= 25.0
+    flat = copy.deepcopy(lens)
+    for e in flat["panels"]["lens"]["edges"]:
+        del e["curve"]
+    with pytest.raises(SandboxError, match="panel 'lens': the outline has zero area"):
+        load_pattern(flat)
+
+
 def test_bad_files(tmp_path):
     bad = tmp_path / "bad.json"
     bad.write_text('{"format": "sandbox-pattern/1",\n "panels": {,}}')
