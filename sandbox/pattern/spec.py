@@ -332,14 +332,19 @@ def save_pattern(pattern: Pattern | dict, path: str | Path) -> Path:
     return write_text(path, pattern_json(data))
 
 
-_NUMBER_LIST = re.compile(r"\[\s*(-?[\d.eE+-]+(?:\s*,\s*-?[\d.eE+-]+)*)\s*\]")
+_NUM = r"-?\d[\d.eE+-]*"
+_NUMBER_LIST = re.compile(rf"\[\n\s*({_NUM}(?:,\n\s*{_NUM})*)\n\s*\]")
 
 
 def pattern_json(data: dict) -> str:
-    """JSON text of a pattern dict: indented, but points and vectors on one line."""
+    """JSON text of a pattern dict: indented, but points and vectors on one line.
+
+    Only lists that json.dumps spread over several lines are joined; strings never hold a
+    raw newline, so their content is untouched.
+    """
     text = json.dumps(data, indent=2, ensure_ascii=False)
-    return _NUMBER_LIST.sub(lambda m: "[" + ", ".join(re.split(r"\s*,\s*", m.group(1))) + "]",
-                            text) + "\n"  # fmt: skip
+    join = lambda m: "[" + ", ".join(re.split(r",\n\s*", m.group(1))) + "]"  # noqa: E731
+    return _NUMBER_LIST.sub(join, text) + "\n"
 
 
 @cache
