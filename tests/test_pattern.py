@@ -8,6 +8,7 @@ from pathlib import Path
 import jsonschema
 import numpy as np
 import pytest
+from scipy.spatial import cKDTree
 
 from sandbox.errors import SandboxError
 from sandbox.pattern import curves
@@ -341,7 +342,7 @@ def test_bezier_length_and_even_spacing(kind, controls):
     assert seg.max() <= h
     # evenly spaced by arc length: the dense arc length between samples is L / k
     s_dense = np.concatenate([[0], np.cumsum(np.linalg.norm(np.diff(dense, axis=0), axis=1))])
-    nearest = [int(np.argmin(np.linalg.norm(dense - q, axis=1))) for q in pts]
+    nearest = cKDTree(dense).query(pts)[1]
     np.testing.assert_allclose(np.diff(s_dense[nearest]), length / (len(pts) - 1), atol=2e-5)
 
 
@@ -599,3 +600,67 @@ def test_garmentcode_cli_and_errors(tmp_path, capsys):
     bad_file.write_text(json.dumps(bad))
     assert main([str(bad_file), str(tmp_path / "x.json")]) == 2
     assert "unknown curvature type 'spiral'" in capsys.readouterr().err
+
+
+# --------------------------------------------------------------------------------------
+# Any broken input is a SandboxError, never a traceback
+
+
+def _paths(t, pre=()):
+    items = t.items() if isinstance(t, dict) else enumerate(t) if isinstance(t, list) else ()
+    for k, v in items:
+        yield pre + (k,)
+        yield from _paths(v, pre + (k,))
+
+
+def _mutations(base):
+    for path in list(_paths(base)):
+        for value in ("<delete>", None, "x", -1, [1], {}, True, float("nan")):
+            d = copy.deepcopy(base)
+            t = d
+            for k in path[:-1]:
+                t = t[k]
+            if value == "<delete>":
+                del t[path[-1]]
+            else:
+                t[path[-1]] = value
+            yield path, value, d
+
+
+def test_broken_inputs_raise_sandbox_errors_only():
+    small = {
+        "format": "sandbox-pattern/1",
+        "units": "cm",
+        "panels": {
+            "p": {
+                "vertices": [[0, 0], [20, 0], [20, 30], [0, 30]],
+                "edges": [
+                    {"name": "hem", "from": 0, "to": 1, "curve": {"type": "arc", "sagitta": -1}},
+                    {"name": "r", "from": 1, "to": 2,
+                     "curve": {"type": "cubic", "controls": [[21, 10], [21, 20]]}},
+                    {"name": "top", "from": 2, "to": 3,
+                     "curve": {"type": "quadratic", "control": [10, 29]}},
+                    {"name": "l", "from": 3, "to": 0},
+                ],
+                "grain": [0, 1],
+                "placement": {"body": "torso", "side": "front", "anchor": [10, 30],
+                              "landmark": "waist_front", "offset": [0, 0, 1], "wrap": True,
+                              "clearance": 2},
+            }
+        },
+        "seams": [{"a": [{"panel": "p", "edge": "l"}], "b": [{"panel": "p", "edge": 1}],
+                   "direction": "same", "stiffness_N_m": 10}],
+    }  # fmt: skip
+    load_pattern(small)
+    gc = _gc_square()
+    gc["pattern"]["stitches"] = [[{"panel": "sq", "edge": 1}, {"panel": "sq", "edge": 3}]]
+    load_pattern(garmentcode_to_dict(gc))
+    cases = [(load_pattern, m) for m in _mutations(small)]
+    cases += [(lambda d: load_pattern(garmentcode_to_dict(d)), m) for m in _mutations(gc)]
+    for load, (path, value, d) in cases:
+        try:
+            load(d)
+        except SandboxError:
+            pass
+        except Exception as exc:  # pragma: no cover - the failure message names the case
+            pytest.fail(f"{path} = {value!r}: {type(exc).__name__}: {exc}")

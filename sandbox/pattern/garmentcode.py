@@ -163,8 +163,14 @@ def garmentcode_to_dict(
         raise SandboxError(f"{where}: not a GarmentCode specification (no 'pattern' object)")
     pat = spec["pattern"]
     props = spec.get("properties", {}) or {}
+    if not isinstance(props, dict):
+        raise SandboxError(f"{where}: 'properties' must be an object")
     units_in_meter = props.get("units_in_meter", 100)
-    if not isinstance(units_in_meter, (int, float)) or not units_in_meter > 0:
+    if (
+        isinstance(units_in_meter, bool)
+        or not isinstance(units_in_meter, (int, float))
+        or not (units_in_meter > 0)
+    ):
         raise SandboxError(
             f"{where}: properties.units_in_meter must be > 0, got {units_in_meter!r}"
         )
@@ -174,7 +180,9 @@ def garmentcode_to_dict(
     panels_t = pat.get("panels")
     if not isinstance(panels_t, dict) or not panels_t:
         raise SandboxError(f"{where}: pattern.panels must be a non-empty object")
-    order = [p for p in pat.get("panel_order", []) if p in panels_t]
+    listed = pat.get("panel_order")
+    listed = listed if isinstance(listed, list) else []
+    order = [p for p in listed if isinstance(p, str) and p in panels_t]
     order += [p for p in panels_t if p not in order]
     panels, edge_names = {}, {}
     for pname in order:
@@ -183,14 +191,17 @@ def garmentcode_to_dict(
             normalize_translation,
         )  # fmt: skip
     seams = []
-    for i, st in enumerate(pat.get("stitches", []) or []):
+    stitches = pat.get("stitches", []) or []
+    if not isinstance(stitches, list):
+        raise SandboxError(f"{where}: pattern.stitches must be a list")
+    for i, st in enumerate(stitches):
         at = f"{where}: stitch #{i}"
         if not isinstance(st, list) or len(st) < 2 or not all(isinstance(x, dict) for x in st[:2]):
             raise SandboxError(f"{at}: a stitch is [{{panel, edge}}, {{panel, edge}}, ...]")
         sides = []
         for side in st[:2]:
             pn, k = side.get("panel"), side.get("edge")
-            if pn not in panels:
+            if not isinstance(pn, str) or pn not in panels:
                 raise SandboxError(f"{at}: unknown panel {pn!r}")
             if isinstance(k, bool) or not isinstance(k, int) or not 0 <= k < len(edge_names[pn]):
                 raise SandboxError(f"{at}: panel {pn!r} has no edge {k!r}")

@@ -418,7 +418,7 @@ class _Reader:
         if not isinstance(description, str):
             self.fail("'description' must be a string")
         units = data.get("units", "cm")
-        if units not in UNITS_TO_M:
+        if not isinstance(units, str) or units not in UNITS_TO_M:
             self.fail(f"unknown units {units!r}; use one of {', '.join(UNITS_TO_M)}")
         u = UNITS_TO_M[units]
         fabric = data.get("fabric", DEFAULT_FABRIC)
@@ -515,7 +515,7 @@ class _Reader:
             if not isinstance(c, dict) or "type" not in c:
                 self.fail(f"{ea}: 'curve' must be an object with a 'type'")
             kind = c["type"]
-            if kind not in CURVE_KEYS:
+            if not isinstance(kind, str) or kind not in CURVE_KEYS:
                 self.fail(f"{ea}: unknown curve type {kind!r}; use one of {', '.join(CURVE_KEYS)}")
             self.keys(c, f"{ea}: {kind} curve", ("type", *CURVE_KEYS[kind]), CURVE_KEYS[kind])
             if kind == "arc":
@@ -641,7 +641,7 @@ class _Reader:
                 ra = f"{sa}: {key}[{j}]"
                 self.keys(r, ra, ("panel", "edge"), ("panel", "edge"))
                 pn = r["panel"]
-                if pn not in panels:
+                if not isinstance(pn, str) or pn not in panels:
                     self.fail(f"{ra}: unknown panel {pn!r}; panels: {', '.join(panels)}")
                 refs.append((pn, panels[pn].edge_index(r["edge"], where=f"{self.src}: {ra}: ")))
             sides.append(refs)
