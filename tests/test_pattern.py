@@ -14,6 +14,7 @@ from sandbox.errors import SandboxError
 from sandbox.pattern import curves
 from sandbox.pattern.garmentcode import garmentcode_to_dict, load_garmentcode, main
 from sandbox.pattern.mesh2d import min_angle_deg
+from sandbox.pattern.panel_mesh import main as check_main
 from sandbox.pattern.panel_mesh import mesh_panel, mesh_pattern, pattern_seam_sides
 from sandbox.pattern.spec import (
     load_pattern,
@@ -664,3 +665,17 @@ def test_broken_inputs_raise_sandbox_errors_only():
             pass
         except Exception as exc:  # pragma: no cover - the failure message names the case
             pytest.fail(f"{path} = {value!r}: {type(exc).__name__}: {exc}")
+
+
+def test_check_cli(tmp_path, capsys):
+    assert check_main([str(SKIRT), "--edge-cm", "4"]) == 0
+    out = capsys.readouterr().out
+    assert "panel front:" in out and "min angle" in out
+    assert "seam 0: front.side_left 61.3 cm <-> back.side_left 61.3 cm (auto" in out
+    p = load_pattern(SKIRT)
+    (a, b), _ = p.seam_lengths_m()
+    assert a == pytest.approx(b) == pytest.approx(p.panels["front"].edges[1].length_m)
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(_bad(_set(["units"], "inch"))))
+    assert check_main([str(bad)]) == 2
+    assert "unknown units 'inch'" in capsys.readouterr().err

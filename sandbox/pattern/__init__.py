@@ -4,40 +4,33 @@ The main entry points (see docs/pattern_format.md)::
 
     from sandbox.pattern import load_pattern, mesh_pattern, pattern_seam_sides
 
-    pattern = load_pattern("garments/skirt.json")      # validated, lengths in metres
-    meshes = mesh_pattern(pattern)                      # {panel name: PanelMesh}
+    pattern = load_pattern("tests/data/pattern_skirt.json")  # validated, lengths in metres
+    meshes = mesh_pattern(pattern)  # {panel name: PanelMesh}
+
+Names are imported lazily, so ``python -m sandbox.pattern.<module>`` runs cleanly.
 """
 
-from sandbox.pattern.panel_mesh import PanelMesh, mesh_panel, mesh_pattern, pattern_seam_sides
-from sandbox.pattern.spec import (
-    Edge,
-    Panel,
-    Pattern,
-    SeamSpec,
-    load_pattern,
-    rotation_matrix_xyz_deg,
-    save_pattern,
-)
+import importlib
 
-__all__ = [
-    "Edge",
-    "Panel",
-    "PanelMesh",
-    "Pattern",
-    "SeamSpec",
-    "load_garmentcode",
-    "load_pattern",
-    "mesh_panel",
-    "mesh_pattern",
-    "pattern_seam_sides",
-    "rotation_matrix_xyz_deg",
-    "save_pattern",
-]
+_EXPORTS = {
+    "Edge": "spec",
+    "Panel": "spec",
+    "Pattern": "spec",
+    "SeamSpec": "spec",
+    "load_pattern": "spec",
+    "save_pattern": "spec",
+    "rotation_matrix_xyz_deg": "spec",
+    "PanelMesh": "panel_mesh",
+    "mesh_panel": "panel_mesh",
+    "mesh_pattern": "panel_mesh",
+    "pattern_seam_sides": "panel_mesh",
+    "load_garmentcode": "garmentcode",
+}
+
+__all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name):  # lazy, so `python -m sandbox.pattern.garmentcode` runs cleanly
-    if name == "load_garmentcode":
-        from sandbox.pattern.garmentcode import load_garmentcode
-
-        return load_garmentcode
+def __getattr__(name):
+    if name in _EXPORTS:
+        return getattr(importlib.import_module(f"sandbox.pattern.{_EXPORTS[name]}"), name)
     raise AttributeError(f"module 'sandbox.pattern' has no attribute {name!r}")

@@ -10,7 +10,9 @@ from the edge's start to its end, corners shared with the neighbouring edges.
 
 from __future__ import annotations
 
+import argparse
 import math
+import sys
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,8 +20,8 @@ import triangle as tr
 
 from sandbox.errors import SandboxError
 from sandbox.pattern import curves
-from sandbox.pattern.mesh2d import morton_order, orient_ccw
-from sandbox.pattern.spec import Panel, Pattern
+from sandbox.pattern.mesh2d import min_angle_deg, morton_order, orient_ccw
+from sandbox.pattern.spec import Panel, Pattern, load_pattern
 
 DEFAULT_EDGE_M = 0.01
 GRADING = 0.2
@@ -222,3 +224,48 @@ def pattern_seam_sides(
             )
         )
     return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m sandbox.pattern.panel_mesh PATTERN.json ... [--edge-cm H]``: check patterns.
+
+    Loads (validates) each file, meshes every panel and prints vertex and triangle counts,
+    the smallest angle, and each seam's two side lengths. Exit status 2 on the first error.
+    """
+    ap = argparse.ArgumentParser(
+        prog="python -m sandbox.pattern.panel_mesh",
+        description="Validate and mesh sandbox pattern files; print panels and seams.",
+    )
+    ap.add_argument("patterns", nargs="+", help="sandbox-pattern/1 JSON files")
+    ap.add_argument("--edge-cm", type=float, default=None, help="target edge [cm] (file's)")
+    args = ap.parse_args(argv)
+    for path in args.patterns:
+        try:
+            pattern = load_pattern(path)
+            h = None if args.edge_cm is None else args.edge_cm / 100.0
+            meshes = mesh_pattern(pattern, h)
+        except SandboxError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
+        h = pattern.mesh_edge_m if h is None else h
+        print(f"{path}: {pattern.name!r}, fabric {pattern.fabric!r}, mesh edge {h * 100:g} cm")
+        for name, m in meshes.items():
+            print(
+                f"  panel {name}: {len(m.points)} vertices, {len(m.triangles)} triangles, "
+                f"min angle {min_angle_deg(m.points, m.triangles):.1f} deg, "
+                f"grain {math.degrees(m.grain_rad):.0f} deg"
+            )
+        for i, (s, (la, lb)) in enumerate(zip(pattern.seams, pattern.seam_lengths_m(),
+                                              strict=True)):  # fmt: skip
+            sides = [" + ".join(f"{p}.{pattern.panels[p].edges[k].name}" for p, k in side)
+                     for side in (s.side_a, s.side_b)]  # fmt: skip
+            print(
+                f"  seam {i}{' ' + s.name if s.name else ''}: {sides[0]} {la * 100:.1f} cm "
+                f"<-> {sides[1]} {lb * 100:.1f} cm ({s.direction}, "
+                f"difference {(lb - la) * 100:+.1f} cm)"
+            )
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -214,6 +214,14 @@ class Pattern:
     description: str = ""
     meta: dict = field(default_factory=dict)
 
+    def seam_lengths_m(self) -> list[tuple[float, float]]:
+        """Arc lengths [m] of the two sides of every seam (a mismatch is ease or a mistake)."""
+        return [
+            tuple(sum(self.panels[p].edges[k].length_m for p, k in side) for side in
+                  (s.side_a, s.side_b))
+            for s in self.seams
+        ]  # fmt: skip
+
     def to_dict(self) -> dict:
         """The pattern as a ``sandbox-pattern/1`` JSON document (in its own units)."""
         u = self.units_to_m
