@@ -679,3 +679,32 @@ def test_check_cli(tmp_path, capsys):
     bad.write_text(json.dumps(_bad(_set(["units"], "inch"))))
     assert check_main([str(bad)]) == 2
     assert "unknown units 'inch'" in capsys.readouterr().err
+
+
+def test_garmentcode_seams_join_matching_points():
+    """Imported stitches, placed as GarmentCode places them, sew points that face each other."""
+    from sandbox.sim.builder import ModelBuilder
+    from sandbox.sim.materials import material_from_spec
+
+    p = load_garmentcode(GC_SKIRT)
+    p.seams = p.seams[:2]  # the two side seams (the third is a deliberate test flag)
+    meshes = mesh_pattern(p, 0.04)
+    b = ModelBuilder()
+    mat = material_from_spec(p.fabric, where="test")
+    index = {}
+    for name, m in meshes.items():
+        pm = p.panels[name].placement_m
+        rot = rotation_matrix_xyz_deg(pm["rotation_deg"])
+        index[name] = b.add_cloth(name=name, pattern_uv=m.points, triangles=m.triangles,
+                                  material=mat, rotation=rot, translation=pm["translation_m"],
+                                  grain_rad=m.grain_rad)  # fmt: skip
+    for s in pattern_seam_sides(p, meshes, index):
+        assert s["direction"] == "reverse"
+        b.add_seam(**s)
+    model = b.finalize()
+    x = model.initial_positions_np
+    gap = x[model.seam_pairs_np[:, 0]] - x[model.seam_pairs_np[:, 1]]
+    np.testing.assert_allclose(np.abs(gap[:, 2]), 0.3, atol=1e-9)  # front z = 0.15, back -0.15
+    # same side, same height: within one mesh edge (the wrong direction would be ~60 cm off)
+    xy = np.linalg.norm(gap[:, :2], axis=1)
+    assert np.median(xy) < 0.01 and xy.max() < 0.045
