@@ -39,12 +39,12 @@ from sandbox.drafting.geometry import (
     panel_dict,
     quad,
     rigid,
-    sample,
     split_quadratic,
     symmetric_outline,
     transform,
 )
 from sandbox.errors import SandboxError
+from sandbox.pattern.curves import bezier_point
 
 NECK_EASE_CM = 0.5  # pattern neck half width over the body's neck base
 BUST_LEVEL_BELOW_UNDERARM = 0.01  # the girth is read just below the underarm corner
@@ -118,6 +118,7 @@ def _side_and_hem(
     hem: dict,
     *,
     front: bool,
+    shift: float = 0.0,
     curve_hip: bool = True,
 ) -> tuple[list[dict], list[dict] | dict, dict]:
     """The right-half side seam (bottom-up) and the hem of a torso panel.
@@ -152,7 +153,7 @@ def _side_and_hem(
         x_up, y_up = above[-1][2], above[-1][1]
         x_c = x_at(y_c) + (flare if y_c < -b.waist_to_hip + 1e-6 or "hip" not in by_name else 0)
         phi = math.atan2(x_c - x_up, y_up - y_c)
-        rise = curve + (x_c * math.tan(phi / 2) if square and phi > 0 else 0.0)
+        rise = curve + ((x_c - shift) * math.tan(phi / 2) if square and phi > 0 else 0.0)
         y_c = y_hem + rise
     corner = P(x_c, y_c)
     names = {"top": "side_{s}", "waist": "side_{s}_hip", "hip": "side_{s}_skirt"}
@@ -170,9 +171,11 @@ def _side_and_hem(
                 cy = ctrl[1]
                 a, bq, cq = yh - 2 * cy, 2 * cy - 2 * yh, yh - y_c
                 disc = max(bq * bq - 4 * a * cq, 0.0)
-                roots = [(-bq + sg * math.sqrt(disc)) / (2 * a) for sg in (1, -1)] if abs(
-                    a
-                ) > 1e-12 else [-cq / bq]
+                roots = (
+                    [(-bq + sg * math.sqrt(disc)) / (2 * a) for sg in (1, -1)]
+                    if abs(a) > 1e-12
+                    else [-cq / bq]
+                )
                 t = min((r for r in roots if -1e-9 <= r <= 1 + 1e-9), key=lambda r: abs(r - 0.5))
                 _, (m, c1, p1) = split_quadratic(P(xh, yh), ctrl, upper, t)
                 corner = m
@@ -238,9 +241,11 @@ def _armhole(name: str, u, sp, x_width: float, fr: _Frame) -> dict:
     c2 = sp - k2 * np.array([math.sin(fr.alpha), math.cos(fr.alpha)])
     span = max(u[0] - x_width, 0.5)
 
+    t = np.linspace(0.0, 1.0, 65)
+
     def min_x(f: float) -> float:
-        e = cubic(name, u, u + P(-f * span, 0), c2, sp)
-        return float(sample(e, 0.5)[:, 0].min())
+        nodes = np.array([u, u + P(-f * span, 0), c2, sp])
+        return float(bezier_point(nodes, t)[:, 0].min())
 
     lo, hi = 0.3, 2.0
     if min_x(lo) <= x_width:
@@ -282,6 +287,15 @@ def _levels(p: dict, b: BodyDims, y_top: float, shift: float) -> list[tuple[str,
     return out
 
 
+def _measured(panels: dict) -> tuple[str, ...]:
+    """The girths every torso panel can be measured at (levels inside the garment)."""
+    keys = ("bust", "waist", "hip")
+    for pn in ("front", "back"):
+        lv = panels[pn].get("meta", {}).get("girth_levels", {})
+        keys = tuple(k for k in keys if k in lv)
+    return keys
+
+
 def _girths(p: dict, b: BodyDims, keys=("bust", "waist", "hip")) -> dict[str, dict]:
     out = {}
     for k in keys:
@@ -292,10 +306,13 @@ def _girths(p: dict, b: BodyDims, keys=("bust", "waist", "hip")) -> dict[str, di
     return out
 
 
-def _levels_meta(levels, y_top) -> dict:
+def _levels_meta(levels, y_top: float, y_corner: float) -> dict:
+    """Panel meta: the heights where the girths are read (levels at least 1 cm above the
+    hem corner; the bust just below the underarm corner)."""
     meta = {}
     for name, y, _ in levels:
-        meta[name] = round(y - BUST_LEVEL_BELOW_UNDERARM if y == y_top else y, 4)
+        if y > y_corner + 1.0:
+            meta[name] = round(y - BUST_LEVEL_BELOW_UNDERARM if y == y_top else y, 4)
     return {"girth_levels": meta}
 
 
@@ -327,7 +344,9 @@ def bodice(p: dict, b: BodyDims) -> Draft:
     pl_front, pl_back = _placements(fr, p)
     for part, sgn, pos, neg in (("front", 1, "left", "right"), ("back", -1, "right", "left")):
         levels = _levels(p, b, fr.y_ua, sgn * shift)
-        side, bottom, _ = _side_and_hem(levels, b, p["hem"], front=part == "front")
+        side, bottom, info = _side_and_hem(
+            levels, b, p["hem"], front=part == "front", shift=sgn * shift
+        )
         u = P(levels[0][2], fr.y_ua)
         if part == "front":
             x_w = b.chest / 2 + 0.5
@@ -344,13 +363,13 @@ def bodice(p: dict, b: BodyDims) -> Draft:
         panels[part] = panel_dict(
             edges,
             placement=pl_front if part == "front" else pl_back,
-            meta=_levels_meta(levels, fr.y_ua),
+            meta=_levels_meta(levels, fr.y_ua, info["corner"][1]),
         )
     seams = _side_seams(side)
     for s in ("left", "right"):
         seams.append(_seam([("front", f"shoulder_{s}")], [("back", f"shoulder_{s}")],
                            f"shoulder {s}"))  # fmt: skip
-    draft = Draft(panels, seams, _girths(p, b))
+    draft = Draft(panels, seams, _girths(p, b, _measured(panels)))
     if p.get("sleeve"):
         _add_sleeves(draft, p["sleeve"], b, arm["front"], arm["back"], sp2[1] - fr.y_ua)
     return draft
@@ -464,7 +483,9 @@ def raglan(p: dict, b: BodyDims) -> Draft:
     pl_front, pl_back = _placements(fr, p)
     for part, sgn, pos, neg in (("front", 1, "left", "right"), ("back", -1, "right", "left")):
         levels = _levels(p, b, fr.y_ua, sgn * shift)
-        side, bottom, _ = _side_and_hem(levels, b, p["hem"], front=part == "front")
+        side, bottom, info = _side_and_hem(
+            levels, b, p["hem"], front=part == "front", shift=sgn * shift
+        )
         u = P(levels[0][2], fr.y_ua)
         if part == "front":
             nr = fr.snp + P(-float(rg.get("front_neck_in_cm", 2.5)), -2.0)
@@ -485,7 +506,7 @@ def raglan(p: dict, b: BodyDims) -> Draft:
         panels[part] = panel_dict(
             edges,
             placement=pl_front if part == "front" else pl_back,
-            meta=_levels_meta(levels, fr.y_ua),
+            meta=_levels_meta(levels, fr.y_ua, info["corner"][1]),
         )
     seams = _side_seams(side)
     # sleeve (right arm, x to the front): underarm corners (+-w, 0), neck corners on top
@@ -538,7 +559,7 @@ def raglan(p: dict, b: BodyDims) -> Draft:
             _seam([(f"sleeve_{s}", "underseam_front")], [(f"sleeve_{s}", "underseam_back")],
                   f"underarm {s}"),
         ]  # fmt: skip
-    g = _girths(p, b)
+    g = _girths(p, b, _measured(panels))
     g["biceps"] = {"body": round(b.top_arm, 3), "ease": round(bic - b.top_arm, 3),
                    "garment": round(bic, 3)}  # fmt: skip
     return Draft(panels, seams, g)
@@ -562,7 +583,9 @@ def camisole(p: dict, b: BodyDims) -> Draft:
     pl_front, pl_back = _placements(fr, p)
     for part, sgn, pos, neg in (("front", 1, "left", "right"), ("back", -1, "right", "left")):
         levels = _levels(p, b, fr.y_ua, sgn * shift)
-        side, bottom, _ = _side_and_hem(levels, b, p["hem"], front=part == "front")
+        side, bottom, info = _side_and_hem(
+            levels, b, p["hem"], front=part == "front", shift=sgn * shift
+        )
         u = P(levels[0][2], fr.y_ua)
         y_e = fr.y_ua + float(top.get(f"{part}_above_underarm_cm", 0.0))
         end = P(xo, y_e)
@@ -585,12 +608,12 @@ def camisole(p: dict, b: BodyDims) -> Draft:
         panels[part] = panel_dict(
             edges,
             placement=pl_front if part == "front" else pl_back,
-            meta=_levels_meta(levels, fr.y_ua),
+            meta=_levels_meta(levels, fr.y_ua, info["corner"][1]),
         )
     seams = _side_seams(side)
     for s in ("left", "right"):
         seams.append(_seam([("front", f"strap_{s}")], [("back", f"strap_{s}")], f"strap {s}"))
-    return Draft(panels, seams, _girths(p, b))
+    return Draft(panels, seams, _girths(p, b, _measured(panels)))
 
 
 def halter(p: dict, b: BodyDims) -> Draft:
@@ -609,7 +632,9 @@ def halter(p: dict, b: BodyDims) -> Draft:
     y_back = fr.y_ua - float(p.get("back_top_below_underarm_cm", 0.0))
     for part, sgn, pos, neg in (("front", 1, "left", "right"), ("back", -1, "right", "left")):
         levels = _levels(p, b, min(fr.y_ua, y_back), sgn * shift)
-        side, bottom, _ = _side_and_hem(levels, b, p["hem"], front=part == "front")
+        side, bottom, info = _side_and_hem(
+            levels, b, p["hem"], front=part == "front", shift=sgn * shift
+        )
         u = P(levels[0][2], levels[0][1])
         if part == "front":
             end = P(xo, y_t)
@@ -625,7 +650,7 @@ def halter(p: dict, b: BodyDims) -> Draft:
         panels[part] = panel_dict(
             edges,
             placement=pl_front if part == "front" else pl_back,
-            meta=_levels_meta(levels, levels[0][1]),
+            meta=_levels_meta(levels, levels[0][1], info["corner"][1]),
         )
     # neckband behind the neck (seen from behind: x to the body's right)
     lb = b.shoulder_width - 2 * b.shoulder_length + 2 * float(st.get("band_extra_cm", 4.0))
@@ -643,7 +668,7 @@ def halter(p: dict, b: BodyDims) -> Draft:
     seams = _side_seams(side)
     for s in ("left", "right"):
         seams.append(_seam([("front", f"strap_{s}")], [("neckband", f"end_{s}")], f"strap {s}"))
-    return Draft(panels, seams, _girths(p, b))
+    return Draft(panels, seams, _girths(p, b, _measured(panels)))
 
 
 # --------------------------------------------------------------------------------------
@@ -665,7 +690,9 @@ def skirt(p: dict, b: BodyDims) -> Draft:
         d = min(max(share * (q_h - q_w), 0.0), float(darts.get("max_intake_cm", 4.0)))
         x_w = q_w + d
         levels = [("waist", 0.0, x_w), ("hip", -b.waist_to_hip, q_h)]
-        side, bottom, _ = _side_and_hem(levels, b, p["hem"], front=part == "front")
+        side, bottom, info = _side_and_hem(
+            levels, b, p["hem"], front=part == "front", shift=sgn * shift
+        )
         top: list[dict] = []
         ld = min(float(darts.get(f"{part}_length_cm", 10.0)), 0.8 * b.waist_to_hip)
         if d > 0.2:

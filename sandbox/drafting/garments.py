@@ -125,9 +125,7 @@ def _strip_docs(v):
     return v
 
 
-def draft(
-    name_or_def: str | GarmentDef, measurements: Measurements, *, mannequin=None
-) -> dict:
+def draft(name_or_def: str | GarmentDef, measurements: Measurements, *, mannequin=None) -> dict:
     """Draft a garment for a body: a ``sandbox-pattern/1`` dict in cm.
 
     Args:
@@ -145,7 +143,8 @@ def draft(
     try:
         d = BLOCKS[g.block](g.params, b)
     except (KeyError, TypeError, ValueError) as exc:
-        raise SandboxError(f"{g.source}: params: cannot draft ({type(exc).__name__}: {exc})") from None
+        msg = f"{g.source}: params: cannot draft ({type(exc).__name__}: {exc})"
+        raise SandboxError(msg) from None
     except SandboxError as exc:
         raise SandboxError(f"{g.source}: {exc}") from None
     return {

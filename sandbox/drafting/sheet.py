@@ -75,8 +75,9 @@ def draw_pattern(pattern: dict, path: str | Path, *, px_per_cm: float = 4.0,
             ax, ay = px(pl["anchor"], dx)
             r = 0.9 * px_per_cm
             dr.ellipse([ax - r, ay - r, ax + r, ay + r], fill=(200, 30, 30))
-        dr.text(px(((lo[0] + hi[0]) / 2, hi[1] + 2.5), dx), name, fill=(0, 0, 0), font=font,
-                anchor="mm")
+        dr.text(
+            px(((lo[0] + hi[0]) / 2, hi[1] + 2.5), dx), name, fill=(0, 0, 0), font=font, anchor="mm"
+        )
     if title:
         dr.text((6, 4), title, fill=(0, 0, 0), font=font)
     with atomic_path(path) as tmp:
