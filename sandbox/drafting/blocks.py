@@ -647,6 +647,8 @@ def halter(p: dict, b: BodyDims) -> Draft:
         else:
             topedge = line("top", u, P(-u[0], u[1]))
             edges = symmetric_outline(side, bottom=bottom, top=topedge, pos=pos, neg=neg)
+            # the low back does not reach the nape: place it by the waist
+            pl_back = _torso_placement("back", (0, 0), "waist_back", pl_back["clearance"])
         panels[part] = panel_dict(
             edges,
             placement=pl_front if part == "front" else pl_back,

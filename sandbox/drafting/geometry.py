@@ -81,7 +81,8 @@ def transform(e: dict, fn, *, reverse: bool = False, name: str | None = None) ->
     c = e["curve"]
     # does fn reflect? (sign of the determinant of its linear part)
     o = fn(np.zeros(2))
-    det = np.cross(fn(np.array([1.0, 0.0])) - o, fn(np.array([0.0, 1.0])) - o)
+    ex, ey = fn(np.array([1.0, 0.0])) - o, fn(np.array([0.0, 1.0])) - o
+    det = ex[0] * ey[1] - ex[1] * ey[0]
     flips = (det < 0) != reverse
     out = {"name": e["name"] if name is None else name, "curve": None}
     if reverse:
