@@ -132,6 +132,19 @@ def test_girths_are_body_plus_ease(name):
     assert checked >= len(SIZES)  # at least one girth per size for every garment
 
 
+@pytest.mark.parametrize("name", ["t-shirt", "long-sleeve-shirt", "raglan-top", "blouse"])
+def test_sleeve_biceps_is_top_arm_plus_ease(name):
+    from sandbox.drafting.body import body_dims
+
+    ease = load_garment(name).params["sleeve"]["bicep_ease_cm"]
+    for size in SIZES:
+        top_arm = body_dims(size_entry(size).measurements).top_arm
+        for s in ("left", "right"):
+            p = drafted(name, size)["panels"][f"sleeve_{s}"]
+            w = width_at(outline_polyline(p, 0.2), -0.01)  # biceps line: y = 0
+            assert w == pytest.approx(top_arm + ease, abs=0.2), (size, s)
+
+
 def test_girths_follow_ease_and_measurements():
     g = load_garment("sheath-dress")
     params = copy.deepcopy(g.params)

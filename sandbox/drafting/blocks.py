@@ -385,11 +385,24 @@ def _cap(name: str, w: float, h: float) -> dict:
     return cubic(name, P(w, 0), P(0.55 * w, 0.12 * h), P(0.45 * w, h), P(0, h))
 
 
+_GL_X, _GL_W = np.polynomial.legendre.leggauss(48)
+_GL_T = 0.5 * (_GL_X + 1.0)
+
+
+def _cap_length(w: float, h: float) -> float:
+    """Arc length [cm] of :func:`_cap` (48-point Gauss-Legendre on the smooth cubic)."""
+    n = np.array([[w, 0.0], [0.55 * w, 0.12 * h], [0.45 * w, h], [0.0, h]])
+    t = _GL_T[:, None]
+    d = 3 * ((1 - t) ** 2 * (n[1] - n[0]) + 2 * t * (1 - t) * (n[2] - n[1]) + t**2 * (n[3] - n[2]))
+    return float(0.5 * np.sum(_GL_W * np.linalg.norm(d, axis=1)))
+
+
 def _solve_width(target: float, h: float) -> float:
-    lo, hi = 0.5, 60.0
-    for _ in range(50):
+    """Half width w of the cap whose curve is ``target`` long at cap height h."""
+    lo, hi = 0.5, 80.0
+    for _ in range(45):
         w = 0.5 * (lo + hi)
-        if length(_cap("c", w, h)) < target:
+        if _cap_length(w, h) < target:
             lo = w
         else:
             hi = w
@@ -425,16 +438,29 @@ def _sleeve_panels(right: list[dict], h_anchor: float) -> dict[str, dict]:
 
 def _add_sleeves(draft: Draft, sp: dict, b: BodyDims, arm_f: float, arm_b: float, depth: float):
     """Set-in sleeves: cap lengths = armhole lengths x (1 + cap ease), front and back apart,
-    so the cap top meets the shoulder seam; the biceps at least top arm + minimum ease."""
+    so the cap top meets the shoulder seam. The cap height is solved so that the biceps
+    is top arm + ``bicep_ease_cm`` (within 25-95 % of the armhole depth), or given as
+    ``cap_height_ratio`` x armhole depth."""
     ease = float(sp.get("cap_ease", 0.03))
-    h = float(sp.get("cap_height_ratio", 0.6)) * depth
-    need = b.top_arm + float(sp.get("bicep_ease_min_cm", 3.0))
-    for _ in range(60):
-        wf = _solve_width(arm_f * (1 + ease), h)
-        wb = _solve_width(arm_b * (1 + ease), h)
-        if wf + wb >= need or h < 0.25 * depth:
-            break
-        h *= 0.95
+    cap_f, cap_b = arm_f * (1 + ease), arm_b * (1 + ease)
+
+    def widths(h: float) -> tuple[float, float]:
+        return _solve_width(cap_f, h), _solve_width(cap_b, h)
+
+    if sp.get("bicep_ease_cm") is not None:
+        # cap height from the biceps: the higher the cap, the narrower the sleeve
+        want = b.top_arm + float(sp["bicep_ease_cm"])
+        lo, hi = 0.25 * depth, 0.95 * depth
+        for _ in range(30):
+            h = 0.5 * (lo + hi)
+            if sum(widths(h)) > want:
+                lo = h
+            else:
+                hi = h
+        h = 0.5 * (lo + hi)
+    else:
+        h = float(sp.get("cap_height_ratio", 0.6)) * depth
+    wf, wb = widths(h)
     total = float(sp.get("length_ratio", 1.0)) * b.sleeve_length
     lu = max(total - h, 2.0)
     hem_w = _arm_girth(b, total, h) + float(sp.get("hem_ease_cm", 5.0))
