@@ -1,0 +1,479 @@
+"""Drape a garment on the mannequin (issue 5, paper §2.3-2.5 and Fig. 7).
+
+pattern (JSON or a library garment) -> mesh each panel (:mod:`sandbox.pattern.panel_mesh`)
+-> place it around the mannequin (:mod:`sandbox.pattern.place`) -> ModelBuilder (cloth
+with its grain, seams) -> the mannequin as a :class:`~sandbox.collision.body.BodyCollider`
+-> the same :class:`~sandbox.scene.build.Scene` that :func:`~sandbox.scene.run.run_scene`
+runs -> outputs (garment and body meshes, front and back renders, metrics with the ease).
+
+Simulation settings for draping (see docs/drape.md):
+
+* time step from :func:`~sandbox.scene.build.stable_dt_estimate` (× 0.9), a whole number of
+  steps per 1/30 s frame (explicit symplectic Euler, Eq. 2);
+* damping γ = :data:`DRAPE_DAMPING_PER_S` (mass-proportional, F = -γ m v): draping looks for
+  the rest state, not the motion, so the cloth is damped about 4× more than the default
+  scene (0.5 /s); the terminal speed g/γ ≈ 2.5 m/s is still far above what a drape needs;
+* the paper's stop rule: every vertex moved less than 1.5 mm and the mean less than 0.1 mm
+  during one frame, after :data:`DRAPE_MIN_TIME_S` (the seams need ~0.1 s to close);
+* contact thickness 2 mm, friction 0.4 / 0.3 against the body; self-collision on.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from sandbox.errors import SandboxError
+
+log = logging.getLogger(__name__)
+
+DRAPE_DAMPING_PER_S = 2.0
+SEW_GAP_M = 2e-3
+"""Sewing ends when every seam spring is shorter than this [m] (or at SEW_TIME_LIMIT_S)."""
+SEW_TIME_LIMIT_S = 1.5
+SEW_STIFFNESS_FACTOR = 0.05
+"""Seam springs pull at this fraction of their final stiffness while sewing (no gravity)."""
+SEW_RAMP_FRAMES = 6
+"""Frames over which the seams stiffen geometrically to their final stiffness."""
+DRAPE_MIN_TIME_S = 0.5
+DRAPE_TIME_LIMIT_S = 8.0
+DRAPE_WALL_LIMIT_S = 1800.0
+FRAME_RATE_HZ = 30.0
+STOP_MAX_M = 1.5e-3
+STOP_MEAN_M = 1.0e-4
+EASE_LANDMARKS = {"bust": "bust_point_left", "waist": "waist_front", "hip": "hip_front"}
+GARMENT_COLOR = (0.32, 0.45, 0.75)
+BODY_COLOR = (0.82, 0.76, 0.68)
+
+
+@dataclass
+class DrapeResult:
+    """A finished drape: the scene, the run, the metrics written and the files."""
+
+    scene: object
+    run: object
+    metrics: dict
+    paths: dict = field(default_factory=dict)
+
+
+# --------------------------------------------------------------------------------------
+# inputs
+
+
+def garment_names() -> list[str]:
+    """Names of the library's garments (empty until the drafting package exists)."""
+    try:
+        from sandbox.drafting import garment_names as names
+    except ImportError:
+        return []
+    return list(names())
+
+
+def resolve_pattern(garment_or_path, mannequin=None):
+    """A loaded :class:`~sandbox.pattern.spec.Pattern` from a path, a dict or a garment name.
+
+    Library garments are drafted for the mannequin's measurements.
+    """
+    from sandbox.pattern.spec import Pattern, load_pattern
+
+    if isinstance(garment_or_path, Pattern):
+        return garment_or_path
+    if isinstance(garment_or_path, dict):
+        return load_pattern(garment_or_path)
+    text = str(garment_or_path)
+    path = Path(text)
+    if path.suffix.lower() == ".json" or path.exists():
+        if not path.is_file():
+            raise SandboxError(f"{path}: no such pattern file")
+        return load_pattern(path)
+    names = garment_names()
+    if text not in names:
+        listed = ", ".join(names) if names else "none yet"
+        raise SandboxError(f"unknown garment {text!r}: give a pattern .json file or one of the "
+                           f"library's garments ({listed})")  # fmt: skip
+    from sandbox.drafting import draft
+
+    measurements = mannequin.measurements_requested if mannequin is not None else None
+    data = draft(text, measurements, mannequin=mannequin)
+    return load_pattern(data, where=f"garment {text!r}")
+
+
+def make_mannequin(size: int | None = None, measurements: dict | None = None):
+    """The mannequin for a drape: a database size (default 12), resized by any
+    measurements given in cm (keys of :data:`sandbox.mannequin.KEYS`)."""
+    from sandbox.mannequin import build_mannequin
+    from sandbox.mannequin.cli import FLAGS
+    from sandbox.mannequin.measurements import size_entry
+
+    given = {k: float(v) for k, v in (measurements or {}).items() if v is not None}
+    if not given:
+        return build_mannequin(size=size if size is not None else 12)
+    base = size_entry(size if size is not None else 12).measurements
+    return build_mannequin(base.replace(**given), size=size, flag_names=FLAGS)
+
+
+def material_for(pattern, fabric=None):
+    """The cloth material: ``fabric`` (a preset name, a material table or a Material), else
+    the pattern's own fabric."""
+    from sandbox.sim.materials import Material, get_material, material_from_spec
+
+    choice = pattern.fabric if fabric is None else fabric
+    if isinstance(choice, Material):
+        return choice
+    where = f"{pattern.source}: fabric"
+    if isinstance(choice, str):
+        return get_material(choice, where=where)
+    return material_from_spec(choice, where=where)
+
+
+# --------------------------------------------------------------------------------------
+# build
+
+
+def build_drape(
+    pattern,
+    mannequin,
+    *,
+    fabric=None,
+    edge_length_m: float | None = 0.01,
+    damping_per_s: float = DRAPE_DAMPING_PER_S,
+    time_limit_s: float = DRAPE_TIME_LIMIT_S,
+    wall_limit_s: float = DRAPE_WALL_LIMIT_S,
+    min_time_s: float = DRAPE_MIN_TIME_S,
+    thickness_m: float = 2e-3,
+    self_collision: bool = True,
+    integrator: str = "symplectic_euler",
+    dt_s: float | None = None,
+):
+    """Mesh, place and sew a pattern on the mannequin: a Scene for ``run_scene``.
+
+    Args:
+        pattern: a loaded Pattern, a pattern dict or a path.
+        mannequin: a :class:`~sandbox.mannequin.Mannequin`.
+        fabric: override of the pattern's fabric (preset name, table or Material).
+        edge_length_m: target mesh edge [m]; None = the pattern's ``mesh_edge``.
+        damping_per_s: mass-proportional damping γ [1/s].
+        time_limit_s, wall_limit_s: simulated and wall-clock limits [s].
+        min_time_s: the stop rule is not checked before this simulated time [s].
+        thickness_m: contact thickness against the body and the cloth itself [m].
+        self_collision: cloth-cloth contact (Bridson et al. 2002).
+        integrator: "symplectic_euler" (Eq. 2) or "implicit_euler".
+        dt_s: time step [s]; None = 0.9 × the stability estimate (1/60 s implicit).
+    """
+    from sandbox import runtime
+    from sandbox.collision.body import BodyCollider
+    from sandbox.pattern.panel_mesh import mesh_pattern, pattern_seam_sides
+    from sandbox.pattern.place import PlacementBody, place_pattern
+    from sandbox.scene.build import (
+        DT_SAFETY,
+        IMPLICIT_DT_S,
+        Scene,
+        build_self_collider,
+        make_solver,
+        stable_dt_estimate,
+    )
+    from sandbox.scene.spec import CollisionSpec, SceneSpec, SimulationSpec, StopSpec
+    from sandbox.sim.builder import ModelBuilder
+
+    pattern = resolve_pattern(pattern, mannequin)
+    if edge_length_m is not None and not (edge_length_m > 0 and math.isfinite(edge_length_m)):
+        raise SandboxError(f"edge length must be a positive number of metres, got {edge_length_m}")
+    if integrator not in ("symplectic_euler", "implicit_euler"):
+        raise SandboxError(f"integrator must be symplectic_euler or implicit_euler, got "
+                           f"{integrator!r}")  # fmt: skip
+    material = material_for(pattern, fabric)
+    meshes = mesh_pattern(pattern, edge_length_m)
+    body = PlacementBody(mannequin)
+    placed = place_pattern(pattern, meshes, body)
+    runtime.ensure_init()
+    builder = ModelBuilder()
+    index = {}
+    for name, mesh in meshes.items():
+        index[name] = builder.add_cloth(
+            name=name,
+            pattern_uv=mesh.points,
+            triangles=mesh.triangles,
+            material=material,
+            grain_rad=mesh.grain_rad,
+            positions=placed[name],
+            where=f"{pattern.source}: panel {name!r}",
+            meta={"mesher": "panel_mesh"},
+        )
+    seam_k = max(material.stretch_u_N_m, material.stretch_v_N_m)
+    for seam in pattern_seam_sides(pattern, meshes, index):
+        if seam.get("stiffness_N_m") is None:
+            seam["stiffness_N_m"] = seam_k
+        builder.add_seam(**seam)
+    model = builder.finalize(bending=True)
+    spec = SceneSpec(
+        name=pattern.name,
+        description=f"drape of {pattern.name} on the mannequin",
+        simulation=SimulationSpec(integrator=integrator, dt_s=dt_s, frame_rate_hz=FRAME_RATE_HZ,
+                                  damping_per_s=damping_per_s),
+        stop=StopSpec(max_displacement_m=STOP_MAX_M, mean_displacement_m=STOP_MEAN_M, frames=1,
+                      min_time_s=min_time_s, time_limit_s=time_limit_s,
+                      wall_limit_s=wall_limit_s),
+        collision=CollisionSpec(thickness_m=thickness_m, self_collision=self_collision),
+        source=pattern.source,
+    )  # fmt: skip
+    model.colliders = [
+        BodyCollider(mannequin.vertices, mannequin.triangles, thickness_m=thickness_m,
+                     friction_static=spec.collision.friction_static,
+                     friction_kinetic=spec.collision.friction_kinetic, name="mannequin",
+                     closed=True)
+    ]  # fmt: skip
+    model.self_collider = build_self_collider(model, spec)
+    frame = 1.0 / FRAME_RATE_HZ
+    limit = stable_dt_estimate(model)
+    auto = min(frame, IMPLICIT_DT_S if integrator == "implicit_euler" else DT_SAFETY * limit)
+    dt = dt_s if dt_s is not None else auto
+    steps = max(1, math.ceil(frame / dt - 1e-9))
+    dt = frame / steps
+    control = model.control(gravity=spec.simulation.gravity_m_s2, damping_per_s=damping_per_s)
+    scene = Scene(spec, model, model.state(), control, make_solver(model, integrator), dt, steps,
+                  limit)  # fmt: skip
+    scene.pattern = pattern
+    scene.mannequin = mannequin
+    scene.placement_body = body
+    return scene
+
+
+# --------------------------------------------------------------------------------------
+# ease
+
+
+def ease_cm(x: np.ndarray, triangles: np.ndarray, mannequin, body=None) -> dict:
+    """Ease at bust, waist and hip: garment girth minus body girth [cm].
+
+    At the height of each landmark (bust point, waist front, hip front), the garment's
+    section (all its pieces cut by the horizontal plane) is reduced to the pieces around
+    the torso (cut lines whose centre lies within 75 % of the torso's half-width: sleeves
+    are left out) and measured like the tape measure measures the body: the perimeter of
+    the convex hull. ``None`` where the garment does not reach that height.
+    Returns ``{"ease_bust_cm", "ease_waist_cm", "ease_hip_cm", "garment_girth_*_cm",
+    "body_girth_*_cm"}``.
+    """
+    from scipy.spatial import ConvexHull, QhullError
+
+    from sandbox.mannequin.tape import girth_at, section_polylines
+    from sandbox.pattern.place import PlacementBody
+
+    body = body or PlacementBody(mannequin)
+    out = {}
+    for key, lm in EASE_LANDMARKS.items():
+        out[f"ease_{key}_cm"] = None
+        out[f"garment_girth_{key}_cm"] = None
+        out[f"body_girth_{key}_cm"] = None
+        if lm not in body.landmarks:
+            continue
+        y = float(body.landmarks[lm][1])
+        frame = body.frame("torso", y)
+        axis = frame.origin[[0, 2]]
+        try:
+            body_girth = girth_at(body.vertices, body.triangles, y, axis_xz=axis)
+        except SandboxError:
+            continue
+        out[f"body_girth_{key}_cm"] = 100.0 * body_girth
+        sel = body.vertices[body.parts["torso"] & (np.abs(body.vertices[:, 1] - y) < 0.02)]
+        half = float(np.abs(sel[:, 0] - axis[0]).max()) if len(sel) else 0.2
+        cuts = section_polylines(x, triangles, (0.0, y, 0.0), (0.0, 1.0, 0.0))
+        pts = [p[:, [0, 2]] for p, _ in cuts if abs(p[:, 0].mean() - axis[0]) <= 0.75 * half]
+        if not pts:
+            continue
+        p2 = np.vstack(pts)
+        try:
+            girth = float(ConvexHull(p2).area)
+        except QhullError:
+            continue
+        out[f"garment_girth_{key}_cm"] = 100.0 * girth
+        out[f"ease_{key}_cm"] = 100.0 * (girth - body_girth)
+    return out
+
+
+# --------------------------------------------------------------------------------------
+# run and write
+
+
+def drape(
+    garment_or_path,
+    *,
+    size: int | None = None,
+    measurements: dict | None = None,
+    fabric=None,
+    out_dir,
+    edge_length_m: float | None = 0.01,
+    render: bool = True,
+    progress: bool | None = None,
+    mannequin=None,
+    **build_options,
+) -> DrapeResult:
+    """Drape a garment (library name, pattern file or dict) on a mannequin and write it.
+
+    The mannequin is ``mannequin`` if given, else the database ``size`` (default 12)
+    resized by ``measurements`` (cm). Writes into ``out_dir``: ``garment.obj`` /
+    ``garment.ply`` (UVs = pattern coordinates [m]), ``body.obj``, ``render.png`` (front),
+    ``render_back.png`` and ``metrics.json``. Raises SandboxError on bad input and
+    SimulationDiverged (nothing written) if the run blows up.
+    """
+    if mannequin is None:
+        mannequin = make_mannequin(size, measurements)
+    pattern = resolve_pattern(garment_or_path, mannequin)
+    t0 = time.perf_counter()
+    scene = build_drape(pattern, mannequin, fabric=fabric, edge_length_m=edge_length_m,
+                        **build_options)  # fmt: skip
+    build_s = time.perf_counter() - t0
+    result = run_drape(scene, progress=progress)
+    metrics = drape_metrics(scene, result, build_s=build_s)
+    paths = write_drape(scene, result, metrics, out_dir, render=render)
+    return DrapeResult(scene, result, metrics, paths)
+
+
+def sew(scene, *, gap_m: float = SEW_GAP_M, time_limit_s: float = SEW_TIME_LIMIT_S) -> dict:
+    """Sewing phase: close the seams without gravity, then stiffen them and turn gravity on.
+
+    The seam springs pull at :data:`SEW_STIFFNESS_FACTOR` of their final stiffness (as stiff
+    as the cloth: the seams then hold the garment's weight) until every spring is shorter
+    than ``gap_m`` or ``time_limit_s`` of simulated time has passed; then they stiffen over
+    :data:`SEW_RAMP_FRAMES` frames. Returns ``{"sew_sim_time_s", "sew_wall_time_s",
+    "sew_frames", "sew_gap_m"}``.
+    """
+    from sandbox.scene.run import SimulationDiverged
+
+    model, solver, state, control = scene.model, scene.solver, scene.state, scene.control
+    out = {"sew_sim_time_s": 0.0, "sew_wall_time_s": 0.0, "sew_frames": 0, "sew_gap_m": 0.0}
+    if not model.seam_count:
+        return out
+    k_final = model.seam_stiffness_np.astype(float)
+    pairs, rest = model.seam_pairs_np, model.seam_rest_np
+    gravity = control.gravity[None]
+    t0 = time.perf_counter()
+    solver.reset_watch()
+    control.gravity[None] = [0.0, 0.0, 0.0]
+    frame_s = scene.dt_s * scene.steps_per_frame
+    frames = max(1, math.ceil(time_limit_s / frame_s))
+    ramp = [SEW_STIFFNESS_FACTOR ** (1 - k / SEW_RAMP_FRAMES) for k in range(SEW_RAMP_FRAMES + 1)]
+    model.seam_stiffness.from_numpy(k_final * ramp[0])
+    gap = math.inf
+    done = 0
+    try:
+        while done < frames:
+            solver.advance(state, control, scene.dt_s, scene.steps_per_frame)
+            done += 1
+            bad = solver.first_bad()
+            if bad is not None:
+                raise SimulationDiverged(f"{scene.spec.source}: the simulation diverged while "
+                                         f"sewing (vertex {bad[1]})")  # fmt: skip
+            x = state.positions()
+            gap = float(np.max(np.linalg.norm(x[pairs[:, 0]] - x[pairs[:, 1]], axis=1) - rest))
+            if gap < gap_m:
+                break
+        for f in ramp[1:]:  # stiffen the closed seams, then let gravity act
+            model.seam_stiffness.from_numpy(k_final * f)
+            solver.advance(state, control, scene.dt_s, scene.steps_per_frame)
+            done += 1
+    finally:
+        model.seam_stiffness.from_numpy(k_final)
+        control.gravity[None] = gravity
+    out.update(sew_sim_time_s=done * frame_s, sew_wall_time_s=time.perf_counter() - t0,
+               sew_frames=done, sew_gap_m=gap)  # fmt: skip
+    return out
+
+
+def run_drape(scene, *, progress: bool | None = None):
+    """Sew (:func:`sew`), then drape under gravity to the paper's stop rule (``run_scene``).
+
+    The RunResult's metrics get the sewing phase's keys and ``total_wall_time_s``.
+    """
+    from sandbox.scene.run import run_scene
+
+    sewn = sew(scene)
+    result = run_scene(scene, progress=progress)
+    result.metrics.update(sewn)
+    result.metrics["total_wall_time_s"] = result.metrics["wall_time_s"] + sewn["sew_wall_time_s"]
+    return result
+
+
+def drape_metrics(scene, result, *, build_s: float = 0.0) -> dict:
+    """metrics.json of a drape: the run's metrics, the garment, the body and the ease."""
+    model, mannequin = scene.model, scene.mannequin
+    m = dict(result.metrics)
+    m.setdefault("seam_gap_max_m", None)
+    mat = model.pieces[0].material
+    m.update(
+        garment=scene.pattern.name,
+        pattern_source=scene.pattern.source,
+        panels=[p.name for p in model.pieces],
+        fabric=getattr(mat, "name", None),
+        mannequin_size=mannequin.size,
+        mannequin_measurements_cm=_measurements_dict(mannequin),
+        damping_per_s=float(scene.control.damping_per_s[None]),
+        self_collision=scene.model.self_collider is not None,
+        build_time_s=build_s,
+        nan_positions=int(np.count_nonzero(~np.isfinite(result.positions))),
+    )
+    m.update(ease_cm(result.positions, model.tri_indices_np, mannequin, scene.placement_body))
+    return m
+
+
+def _measurements_dict(mannequin) -> dict | None:
+    meas = getattr(mannequin, "measurements_requested", None)
+    if meas is None:
+        return None
+    if hasattr(meas, "to_dict"):
+        return {k: float(v) for k, v in meas.to_dict().items()}
+    from dataclasses import asdict, is_dataclass
+
+    return {k: float(v) for k, v in asdict(meas).items()} if is_dataclass(meas) else None
+
+
+def write_drape(scene, result, metrics: dict, out_dir, *, render: bool = True) -> dict:
+    """Write the garment and body meshes, front/back renders and metrics.json."""
+    from sandbox.atomic import write_json
+    from sandbox.render.meshio import write_mesh
+    from sandbox.scene.output import _jsonable
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    model, mannequin = scene.model, scene.mannequin
+    x = result.positions
+    tris = model.tri_indices_np
+    paths = {
+        "garment_obj": write_mesh(out / "garment.obj", x, tris, uvs=model.rest_uv_np),
+        "garment_ply": write_mesh(out / "garment.ply", x, tris, uvs=model.rest_uv_np),
+        "body_obj": write_mesh(out / "body.obj", mannequin.vertices, mannequin.triangles),
+    }
+    if render:
+        paths["render_front"] = render_drape(out / "render.png", x, tris, mannequin, "front")
+        paths["render_back"] = render_drape(out / "render_back.png", x, tris, mannequin, "back")
+    metrics = dict(metrics)
+    metrics["outputs"] = {k: p.name for k, p in paths.items()}
+    metrics["bounding_box_m"] = [x.min(axis=0).tolist(), x.max(axis=0).tolist()]
+    paths["metrics"] = write_json(out / "metrics.json", _jsonable(metrics))
+    return paths
+
+
+def render_drape(path, x, tris, mannequin, view: str = "front", *, size: int = 640):
+    """Off-screen PNG of the garment on the body from one view ("front", "back", "side")."""
+    from sandbox.render.offscreen import render_png
+
+    meshes = [
+        {"vertices": x, "triangles": tris, "color": GARMENT_COLOR},
+        {"vertices": mannequin.vertices, "triangles": mannequin.triangles, "color": BODY_COLOR},
+    ]
+    return render_png(path, meshes, views=(view,), width=size, height=size)
+
+
+def drape_image(x, tris, mannequin, view: str = "front", *, size: int = 320) -> np.ndarray:
+    """RGB uint8 image (size, size, 3) of the garment on the body (for contact sheets)."""
+    from sandbox.render.offscreen import render_image
+
+    meshes = [
+        {"vertices": x, "triangles": tris, "color": GARMENT_COLOR},
+        {"vertices": mannequin.vertices, "triangles": mannequin.triangles, "color": BODY_COLOR},
+    ]
+    return render_image(meshes, views=(view,), width=size, height=size)
