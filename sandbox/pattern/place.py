@@ -52,7 +52,10 @@ OFFSET_DIRECTIONS = 48
 FIT_MARGIN = 1.08
 """Extra offset is computed for a panel 8 % wider than it is (the offset curve's arc within
 a sector grows a little slower than the circle estimate)."""
-PUSH_ITERATIONS = 4
+PUSH_ITERATIONS = 8
+OVERLAP_MARGIN_M = 0.015
+"""Limb panels (sleeve caps) above the underarm start at least this far outside the torso
+panels, measured from the torso axis, so that they do not cut through the bodice."""
 BODIES = ("torso", "arm_left", "arm_right", "leg_left", "leg_right")
 _SIDE_DIRS = {"front": (0.0, 0.0, 1.0), "back": (0.0, 0.0, -1.0), "left": (1.0, 0.0, 0.0),
               "right": (-1.0, 0.0, 0.0)}  # fmt: skip
@@ -385,7 +388,67 @@ def place_pattern(pattern, meshes: dict, mannequin) -> dict[str, np.ndarray]:
             sector = None
         out[name] = place_panel(pts, p, body, panel.units_to_m, sector_rad=sector,
                                 axis_height_m=heights[part], where=at)  # fmt: skip
+    if "torso" in by_part:
+        limbs = [n for part, names in by_part.items() if part != "torso" for n in names]
+        _lift_over_torso(body, body.frame("torso", heights["torso"]), out,
+                         by_part["torso"], limbs, pattern)  # fmt: skip
     return out
+
+
+def _lift_over_torso(body, frame, out, torso_panels, limb_panels, pattern) -> None:
+    """Move limb-panel vertices above the underarm that lie inside (or within the margin of)
+    the torso panels radially outwards, about the torso axis, to the margin."""
+    if not limb_panels or not torso_panels:
+        return
+    from scipy.spatial import cKDTree
+
+    def cyl(x):
+        p = x - frame.origin
+        u, w = p @ frame.e1, p @ frame.e2
+        return p @ frame.a, np.arctan2(w, u), np.hypot(u, w)
+
+    h_t, th_t, r_t = cyl(np.vstack([out[n] for n in torso_panels]))
+    scale = float(np.median(r_t))
+    tree = cKDTree(np.stack([h_t, th_t * scale], 1))
+    for name in limb_panels:
+        part = pattern.panels[name].placement.get("body", "torso")
+        side = part.rpartition("_")[2]
+        key = f"underarm_point_{side}"
+        if part.startswith("leg") or key not in body.landmarks:
+            continue
+        x = out[name]
+        h, th, r = cyl(x)
+        above = h >= frame.height(body.landmarks[key]) - 0.01
+        if not above.any():
+            continue
+        idx = np.nonzero(above)[0]
+        best = np.full(len(idx), -np.inf)
+        for shift in (-2 * np.pi, 0.0, 2 * np.pi):  # angles wrap around
+            d, j = tree.query(np.stack([h[idx], (th[idx] + shift) * scale], 1),
+                              distance_upper_bound=0.03)  # fmt: skip
+            ok = np.isfinite(d)
+            best[ok] = np.maximum(best[ok], r_t[j[ok]])
+        need = np.where(np.isfinite(best), best + OVERLAP_MARGIN_M - r[idx], 0.0)
+        if not (need > 0).any():
+            continue
+        # one sideways shift per height row (rows move rigidly: no fold), growing upwards
+        lo = frame.height(body.landmarks[key]) - 0.03
+        rows = np.floor((h - lo) / ROW_M).astype(int)
+        lift = np.zeros(rows.max() + 2)
+        np.maximum.at(lift, rows[idx], np.maximum(need, 0.0))
+        lift = np.maximum.accumulate(_dilate(lift, 2))
+        hole = f"armhole_{side}"
+        centre = body.point(hole) if hole in body.feature_lines else x.mean(axis=0)
+        d = centre - frame.origin
+        d = d - (d @ frame.a) * frame.a
+        d = d / max(np.linalg.norm(d), 1e-9)
+        ramp = np.clip((h - lo) / 0.03, 0.0, 1.0)
+        shift = lift[np.clip(rows, 0, len(lift) - 1)] * ramp * (h >= lo)
+        x = x + shift[:, None] * d[None, :] * 1.2
+        pl = pattern.panels[name].placement
+        u = pattern.panels[name].units_to_m
+        x, _ = body.push_out(x, float(pl.get("clearance", DEFAULT_CLEARANCE_M / u)) * u)
+        out[name] = x
 
 
 # --- wrapping -------------------------------------------------------------------------
