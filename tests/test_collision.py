@@ -5,6 +5,7 @@ import math
 import numpy as np
 import pytest
 
+from sandbox.collision.metrics import count_intersecting_pairs
 from sandbox.scene.build import build_scene, rotation_matrix
 from sandbox.scene.run import run_scene
 from sandbox.scene.spec import scene_from_dict
@@ -35,7 +36,7 @@ def test_sheet_dropped_on_a_sphere_stays_outside():
     assert (radius < 0.2).sum() == 0  # no vertex inside the (tessellated) sphere
     assert radius.min() > 0.2 - 1e-3
     assert r.metrics["vertices_inside_body"] == 0 and r.metrics["penetration_max_m"] == 0.0
-    assert isinstance(r.metrics["intersecting_triangle_pairs"], int)
+    assert r.metrics["intersecting_triangle_pairs"] == 0  # nor through itself
     top = r.positions[np.argmin(np.linalg.norm(r.positions[:, [0, 2]], axis=1))]
     assert 0.2 < top[1] < 0.2 + 0.01  # the sheet rests on the sphere, not above or in it
 
@@ -57,6 +58,7 @@ def test_sheet_dropped_on_the_edge_of_a_box_stays_outside():
     inside = (np.abs(x[:, 0] + 0.15) < 0.15) & (np.abs(x[:, 1]) < 0.2) & (np.abs(x[:, 2]) < 0.2)
     assert inside.sum() == 0 and np.isfinite(x).all()
     assert x[:, 1].min() < 0.1  # the free part fell past the edge
+    assert r.metrics["intersecting_triangle_pairs"] == 0
 
 
 def test_sheet_thrown_fast_at_a_thin_cylinder_does_not_pass_through():
@@ -110,6 +112,7 @@ def test_sheet_thrown_fast_at_a_thin_cylinder_does_not_pass_through():
     assert centre_line.sum() > 3
     assert (x[centre_line, 2] > 0).all()  # caught in front of the arm, not through it
     assert (x[~centre_line, 2] < 0.1).any()  # while the rest of the sheet flew on
+    assert count_intersecting_pairs(x, sc.model.tri_indices_np) == 0
 
 
 @pytest.mark.parametrize("angle_deg, mu", [(15.0, 0.4), (30.0, 0.2), (40.0, 0.3)])
@@ -154,6 +157,7 @@ def test_square_on_an_inclined_plane_sticks_or_slides_with_coulomb_friction(angl
         assert 2 * travelled / t**2 == pytest.approx(expected_a, rel=0.05)
     off_plane = (sc.state.positions() @ n).min()
     assert off_plane > 0.0  # never through the plane
+    assert count_intersecting_pairs(sc.state.positions(), sc.model.tri_indices_np) == 0
 
 
 def test_mesh_file_collider_and_a_missing_file(tmp_path):

@@ -147,7 +147,7 @@ def coplanar_times(x1, x2, x3, x4, v1, v2, v3, v4):
     roots = ti.Vector([2.0, 2.0, 2.0])
     count = 0
     lo = 0.0
-    for k in ti.static(range(1, 4)):
+    for k in range(1, 4):
         hi = cuts[k]
         if hi > lo and hi <= 1.0 or k == 3:
             hi = ti.min(hi, 1.0)

@@ -48,6 +48,7 @@ from sandbox.collision.primitives import (
 from sandbox.errors import SandboxError
 
 CCD_PASSES = 8
+SWEEP_SAFETY = 1.25  # a fast step's pairs: reach grown by this times their relative motion
 MARGIN_STEPS = 8.0  # the margin covers at least this many steps of the fastest vertex
 CELL_SCALE = 1.5  # grid cell size over max(mean rest edge length, reach)
 SEPARATION_FRACTION = 0.25  # of the missing thickness, per step (proximity pass)
@@ -128,7 +129,10 @@ class SelfCollider:
         self.x_build = ti.Vector.field(3, float, shape=max(1, n))
         self.corr = ti.Vector.field(3, float, shape=max(1, n))  # position correction [m/s]
         self.max_step = ti.field(float, shape=())
-        self.mean_shift = ti.Vector.field(3, float, shape=())
+        self.mean_shift = ti.Vector.field(3, float, shape=())  # this step's mean dt v
+        self.drift_mean = ti.Vector.field(3, float, shape=())
+        self.swept = ti.field(ti.i32, shape=())
+        self.covered = ti.field(ti.i32, shape=())
         self.spread = ti.field(float, shape=())
         self.unresolved = ti.field(ti.i32, shape=())
         # counters since construction: rebuilds, CCD hits, steps that needed zones
@@ -191,32 +195,45 @@ class SelfCollider:
         (falling) does not invalidate the candidate list.
         """
         n = self.model.particle_count
-        self.mean_shift[None] = ti.Vector([0.0, 0.0, 0.0])
+        self.drift_mean[None] = ti.Vector([0.0, 0.0, 0.0])
         for i in range(n):
             u = x[i] + dt * v[i] - self.x_build[i]
             if with_corr:
                 u += dt * self.corr[i]
-            self.mean_shift[None] += u / n
+            self.drift_mean[None] += u / n
         self.spread[None] = 0.0
         for i in range(n):
             u = x[i] + dt * v[i] - self.x_build[i]
             if with_corr:
                 u += dt * self.corr[i]
-            ti.atomic_max(self.spread[None], (u - self.mean_shift[None]).norm())
+            ti.atomic_max(self.spread[None], (u - self.drift_mean[None]).norm())
         return self.spread[None]
 
     @ti.func
     def prepare(self, x, v, dt):
-        """Start of the contact passes: clear corrections, decide whether to rebuild."""
-        self.max_step[None] = 0.0
-        for i in range(self.model.particle_count):
+        """Start of the contact passes: clear corrections, decide whether to rebuild.
+
+        ``max_step`` becomes this step's largest displacement relative to the cloth's mean
+        motion [m], the motion a rebuilt list must cover.
+        """
+        n = self.model.particle_count
+        self.mean_shift[None] = ti.Vector([0.0, 0.0, 0.0])
+        for i in range(n):
             self.corr[i] = ti.Vector([0.0, 0.0, 0.0])
-            ti.atomic_max(self.max_step[None], dt * v[i].norm())
+            self.mean_shift[None] += dt * v[i] / n
+        self.max_step[None] = 0.0
+        for i in range(n):
+            ti.atomic_max(self.max_step[None], (dt * v[i] - self.mean_shift[None]).norm())
         if self._drift_from_build(x, v, dt, False) > 0.4 * self.margin[None]:
             self.needs_build[None] = 1
 
     @ti.func
-    def rebuild(self, x):
+    def _motion(self, i, v, dt):
+        """Particle i's displacement this step relative to the cloth's mean motion [m]."""
+        return (dt * v[i] - self.mean_shift[None]).norm()
+
+    @ti.func
+    def rebuild(self, x, v, dt):
         """The candidate list at the current positions (call when ``needs_build``).
 
         Two hash grids with one entry per item: vertices by position, edges by midpoint.
@@ -226,11 +243,15 @@ class SelfCollider:
         """
         m = self.model
         h = self.thickness[None]
-        # more steps per rebuild when the cloth moves fast, but never so far that pairs
-        # of neighbours in the cloth's own plane enter the list
+        # more steps per rebuild when the cloth moves fast, but not so far that pairs of
+        # neighbours in the cloth's own plane fill the list; a single step that moves
+        # further than that still gets a list that covers it (large dt)
         grown = ti.min(MARGIN_STEPS * self.max_step[None], 0.5 * self.mean_edge)
         self.margin[None] = ti.max(self.margin0, grown)
         reach = h + self.margin[None]
+        # pairs that this very step's relative motion could bring together are kept too
+        self.swept[None] = 1 if 2.0 * self.max_step[None] > 0.4 * self.margin[None] else 0
+        query = reach + 2.0 * SWEEP_SAFETY * self.max_step[None]
         self.cell[None] = CELL_SCALE * ti.max(self.mean_edge, reach)
         self.half_edge[None] = 0.0
         for i in range(m.particle_count):
@@ -266,8 +287,14 @@ class SelfCollider:
         for t in range(m.tri_count):
             tv = m.tri_indices[t]
             a, b, c = x[tv[0]], x[tv[1]], x[tv[2]]
-            lo = self._cell_of(ti.min(a, b, c) - reach)
-            hi = self._cell_of(ti.max(a, b, c) + reach)
+            lo = self._cell_of(ti.min(a, b, c) - query)
+            hi = self._cell_of(ti.max(a, b, c) + query)
+            tri_move = ti.max(self._motion(tv[0], v, dt), self._motion(tv[1], v, dt),
+                              self._motion(tv[2], v, dt))  # fmt: skip
+            # the triangle's swept box this step, grown by the reach
+            ya, yb, yc = a + dt * v[tv[0]], b + dt * v[tv[1]], c + dt * v[tv[2]]
+            t_lo = ti.min(ti.min(a, b, c), ti.min(ya, yb, yc)) - reach
+            t_hi = ti.max(ti.max(a, b, c), ti.max(ya, yb, yc)) + reach
             for i, j, k in ti.ndrange((lo[0], hi[0] + 1), (lo[1], hi[1] + 1), (lo[2], hi[2] + 1)):
                 cid = ti.Vector([i, j, k])
                 bk = self._bucket(cid)
@@ -276,14 +303,21 @@ class SelfCollider:
                     if (self._cell_of(x[u]) == cid).all() and not self._excluded_vt(u, tv):
                         w = point_triangle_closest(x[u], a, b, c)
                         q = w[0] * a + w[1] * b + w[2] * c
-                        if (x[u] - q).norm() < reach:
+                        sweep = SWEEP_SAFETY * (self._motion(u, v, dt) + tri_move)
+                        y = x[u] + dt * v[u]
+                        meet = (ti.min(x[u], y) <= t_hi).all() and (ti.max(x[u], y) >= t_lo).all()
+                        if (x[u] - q).norm() < reach + sweep and meet:
                             self._append(KIND_VT, ti.Vector([u, tv[0], tv[1], tv[2]]))
         # edge-edge
-        grow = reach + self.half_edge[None]
+        grow = query + self.half_edge[None]
         for e in range(self.edge_count):
             ea = self.edge[e]
             p0, p1 = x[ea[0]], x[ea[1]]
-            box_lo, box_hi = ti.min(p0, p1) - reach, ti.max(p0, p1) + reach
+            box_lo, box_hi = ti.min(p0, p1) - query, ti.max(p0, p1) + query
+            move_a = ti.max(self._motion(ea[0], v, dt), self._motion(ea[1], v, dt))
+            r0, r1 = p0 + dt * v[ea[0]], p1 + dt * v[ea[1]]
+            a_lo = ti.min(ti.min(p0, p1), ti.min(r0, r1)) - reach
+            a_hi = ti.max(ti.max(p0, p1), ti.max(r0, r1)) + reach
             lo = self._cell_of(ti.min(p0, p1) - grow)
             hi = self._cell_of(ti.max(p0, p1) + grow)
             for i, j, k in ti.ndrange((lo[0], hi[0] + 1), (lo[1], hi[1] + 1), (lo[2], hi[2] + 1)):
@@ -299,7 +333,12 @@ class SelfCollider:
                         if near and own and not self._excluded_ee(ea, eb):
                             sa, sb = segment_segment_closest(p0, p1, q0, q1)
                             d = (p0 + sa * (p1 - p0)) - (q0 + sb * (q1 - q0))
-                            if d.norm() < reach:
+                            move_b = ti.max(self._motion(eb[0], v, dt), self._motion(eb[1], v, dt))
+                            s0, s1 = q0 + dt * v[eb[0]], q1 + dt * v[eb[1]]
+                            b_lo = ti.min(ti.min(q0, q1), ti.min(s0, s1))
+                            b_hi = ti.max(ti.max(q0, q1), ti.max(s0, s1))
+                            meet = (a_lo <= b_hi).all() and (b_lo <= a_hi).all()
+                            if d.norm() < reach + SWEEP_SAFETY * (move_a + move_b) and meet:
                                 self._append(KIND_EE, ti.Vector([ea[0], ea[1], eb[0], eb[1]]))
         self.needs_build[None] = 0
         self.rebuilds[None] += 1
@@ -378,31 +417,38 @@ class SelfCollider:
         u1 = dt * (v[idx[1]] + self.corr[idx[1]])
         u2 = dt * (v[idx[2]] + self.corr[idx[2]])
         u3 = dt * (v[idx[3]] + self.corr[idx[3]])
-        W0, d0 = self._geometry(kind, x0, x1, x2, x3)
         reach = u0.norm() + ti.max(u1.norm(), u2.norm(), u3.norm())
         if kind == KIND_EE:
             reach = ti.max(u0.norm(), u1.norm()) + ti.max(u2.norm(), u3.norm())
         hit = False
-        W = W0
+        W = ti.Vector([0.0, 0.0, 0.0, 0.0])
         n = ti.Vector([0.0, 0.0, 0.0])
         g0 = 0.0
         h = self.thickness[None]
         eps = 1e-6 + 1e-3 * h
-        if reach >= d0.norm() - eps:  # otherwise the pair cannot meet during the step
-            roots, count = coplanar_times(x0, x1, x2, x3, u0, u1, u2, u3)
-            for r in range(3):
-                if r < count and not hit:
-                    t = roots[r]
-                    y0, y1, y2, y3 = x0 + t * u0, x1 + t * u1, x2 + t * u2, x3 + t * u3
-                    Wt, dt_vec = self._geometry(kind, y0, y1, y2, y3)
-                    if dt_vec.norm() < eps:
-                        hit = True
-                        W = Wt
-                        n = self._fallback_normal(kind, y0, y1, y2, y3)
-                        start = W[0] * x0 + W[1] * x1 + W[2] * x2 + W[3] * x3
-                        if n.dot(start) < 0.0:
-                            n = -n
-                        g0 = n.dot(start)
+        roots = ti.Vector([0.0, 2.0, 2.0, 2.0])  # entry 0: the start, to bound the motion
+        count = 1
+        r = 0
+        while r < count and not hit:  # one inlined distance routine for every time
+            t = roots[r]
+            y0, y1, y2, y3 = x0 + t * u0, x1 + t * u1, x2 + t * u2, x3 + t * u3
+            Wt, d = self._geometry(kind, y0, y1, y2, y3)
+            if r == 0:
+                if reach >= d.norm() - eps:  # otherwise the pair cannot meet this step
+                    found, k = coplanar_times(x0, x1, x2, x3, u0, u1, u2, u3)
+                    roots[1] = found[0]
+                    roots[2] = found[1]
+                    roots[3] = found[2]
+                    count = 1 + k
+            elif d.norm() < eps:
+                hit = True
+                W = Wt
+                n = self._fallback_normal(kind, y0, y1, y2, y3)
+                start = W[0] * x0 + W[1] * x1 + W[2] * x2 + W[3] * x3
+                if n.dot(start) < 0.0:
+                    n = -n
+                g0 = n.dot(start)
+            r += 1
         return hit, W, n, g0
 
     @ti.func
@@ -432,33 +478,36 @@ class SelfCollider:
                             self.ccd_hits[None] += 1
             if remaining > 0:
                 self.unresolved[None] = remaining
-        # the candidate list covers the step only if no vertex ends beyond margin / 2
+        # the candidate list covers the step only if no vertex ends beyond margin / 2 (or
+        # if it was built for this step's own motion: rebuilt again at the next step)
+        self.covered[None] = 1
         if self._drift_from_build(x, v, dt, True) > 0.5 * self.margin[None]:
             self.needs_build[None] = 1
-
-    @ti.func
-    def respond(self, x, v, dt):
-        """All passes for one step; returns True if the step is resolved.
-
-        False means impact zones are needed (:meth:`resolve_zones`) or the candidate list
-        no longer covers the motion (``needs_build``; rebuild, then respond again).
-        """
-        self.prepare(x, v, dt)
-        if self.needs_build[None]:
-            self.rebuild(x)
-        self.proximity(x, v, dt)
-        self.continuous(x, v, dt)
-        return self.unresolved[None] == 0 and self.needs_build[None] == 0
+            if self.swept[None] == 0:
+                self.covered[None] = 0
+        self.swept[None] = 0
 
     # ------------------------------------------------------------------ Python side
     @ti.kernel
-    def _respond_kernel(self, x: ti.template(), v: ti.template(), dt: float) -> ti.i32:
-        ok = self.respond(x, v, dt)
-        return 1 if ok else 0
+    def _prepare_kernel(self, x: ti.template(), v: ti.template(), dt: float) -> ti.i32:
+        self.prepare(x, v, dt)
+        return self.needs_build[None]
 
     @ti.kernel
-    def _rebuild_kernel(self, x: ti.template()):
-        self.rebuild(x)
+    def _passes_kernel(self, x: ti.template(), v: ti.template(), dt: float) -> ti.i32:
+        self.proximity(x, v, dt)
+        self.continuous(x, v, dt)
+        return 1 if self.unresolved[None] == 0 and self.covered[None] == 1 else 0
+
+    def _respond_kernel(self, x, v, dt: float) -> bool:
+        """The three kernels of one response: prepare, rebuild if needed, the passes."""
+        if self._prepare_kernel(x, v, dt):
+            self._rebuild_kernel(x, v, dt)
+        return bool(self._passes_kernel(x, v, dt))
+
+    @ti.kernel
+    def _rebuild_kernel(self, x: ti.template(), v: ti.template(), dt: float):
+        self.rebuild(x, v, dt)
 
     @ti.kernel
     def _mark_kernel(self, x: ti.template(), v: ti.template(), dt: float) -> ti.i32:
@@ -482,12 +531,10 @@ class SelfCollider:
         ok = self._respond_kernel(state_x, state_v, dt)
         self.check_capacity()
         tries = 0
-        while not ok and tries < 3:
-            tries += 1
-            if self.needs_build[None]:
-                self._rebuild_kernel(state_x)  # margin from this step's motion
-                self.check_capacity()
+        while not ok and self.needs_build[None] and tries < 2:
+            tries += 1  # the impulses moved a vertex beyond the list's reach: rebuild
             ok = self._respond_kernel(state_x, state_v, dt)
+            self.check_capacity()
         if not ok:
             self.resolve_zones(state_x, state_v, dt)
 

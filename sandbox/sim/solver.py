@@ -46,9 +46,6 @@ class SymplecticEulerSolver:
         if model.seam_count:
             self.seam_force = ti.Vector.field(3, float, shape=2 * model.seam_count)
         self.self_collider = model.self_collider
-        self.has_self_collision = model.self_collider is not None
-        self.halted = ti.field(ti.i32, shape=())  # self-collision needs the Python fail-safe
-        self.steps_done = ti.field(ti.i32, shape=())
         self.bad_step = ti.field(ti.i32, shape=())
         self.bad_vertex = ti.field(ti.i32, shape=())
         self.energy = ti.field(ti.f64, shape=())
@@ -75,22 +72,12 @@ class SymplecticEulerSolver:
 
     def advance(self, state: State, control: Control, dt: float, steps: int, first_index=0):
         """Advance ``state`` in place by ``steps`` steps of ``dt`` [s]."""
-        sc = self.self_collider
-        if runtime.arch() == "cpu" and self.model.particle_count <= FUSED_PARTICLE_LIMIT:
-            done = 0
-            while done < steps:
-                self.halted[None] = 0
-                self.steps_done[None] = 0
-                self._fused_kernel(state.x, state.v, control.gravity, control.damping_per_s,
-                                   dt, steps - done, first_index + done)  # fmt: skip
-                done += int(self.steps_done[None])
-                if sc is not None:
-                    sc.check_capacity()
-                    if self.halted[None]:  # a step the kernel could not resolve on its own
-                        sc.resolve(state.x, state.v, dt)
-                        self._drift_kernel(state.x, state.v, state.x, dt, first_index + done)
-                        done += 1
-        else:
+        fused = runtime.arch() == "cpu" and self.model.particle_count <= FUSED_PARTICLE_LIMIT
+        if fused and self.self_collider is None:
+            self._fused_kernel(
+                state.x, state.v, control.gravity, control.damping_per_s, dt, steps, first_index
+            )
+        else:  # self-collision needs its passes between the two halves of each step
             for k in range(steps):
                 self.step(state, state, control, dt, first_index + k)
 
@@ -131,18 +118,8 @@ class SymplecticEulerSolver:
     ):  # fmt: skip
         ti.loop_config(serialize=True)
         for k in range(steps):
-            if self.halted[None] == 0:
-                self._element_forces(x)
-                if ti.static(not self.has_self_collision):
-                    self._kick_drift(x, v, x, v, gravity, damping, dt, first_index + k)
-                    self.steps_done[None] += 1
-                else:
-                    self._kick(x, v, v, gravity, damping, dt)
-                    if self.model.self_collider.respond(x, v, dt):
-                        self._drift(x, v, x, dt, first_index + k)
-                        self.steps_done[None] += 1
-                    else:
-                        self.halted[None] = 1
+            self._element_forces(x)
+            self._kick_drift(x, v, x, v, gravity, damping, dt, first_index + k)
 
     @ti.kernel
     def _kick_kernel(
