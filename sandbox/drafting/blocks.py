@@ -146,24 +146,39 @@ def _side_and_hem(
         return float(np.interp(y, ys[::-1], xs[::-1]))
 
     by_name = {lv[0]: lv for lv in levels}
+    from_waist = (
+        hem.get("flare_from", "hip") == "waist"
+        and "waist" in by_name
+        and "hip" in by_name
+        and y_hem < -b.waist_to_hip - 1.0
+    )
     rise = curve
     y_c = y_hem + rise
     for _ in range(6):  # the hem squared to the side seam: the rise depends on the flare
         above = [lv for lv in levels if lv[1] > y_c + 1e-6]
         x_up, y_up = above[-1][2], above[-1][1]
+        if from_waist:
+            x_up, y_up = by_name["waist"][2], 0.0
         x_c = x_at(y_c) + (flare if y_c < -b.waist_to_hip + 1e-6 or "hip" not in by_name else 0)
         phi = math.atan2(x_c - x_up, y_up - y_c)
         rise = curve + ((x_c - shift) * math.tan(phi / 2) if square and phi > 0 else 0.0)
         y_c = y_hem + rise
     corner = P(x_c, y_c)
     names = {"top": "side_{s}", "waist": "side_{s}_hip", "hip": "side_{s}_skirt"}
-    pts = [lv for lv in levels if lv[1] > y_c + 1e-6]
+    pts = [lv for lv in levels if lv[1] > y_c + 1e-6 and not (from_waist and lv[0] == "hip")]
     edges: list[dict] = []
     lower = corner
     for lv in reversed(pts):
         upper = P(lv[2], lv[1])
         name = names["top"] if lv is levels[0] else names[lv[0]]
-        if lv[0] == "waist" and curve_hip and "hip" in by_name:
+        if lv[0] == "waist" and from_waist:
+            # one smooth curve from the hem corner through the hip point to the waist
+            hip = P(by_name["hip"][2], by_name["hip"][1])
+            d1, d2 = np.linalg.norm(hip - lower), np.linalg.norm(upper - hip)
+            t = d1 / (d1 + d2)
+            ctrl = (hip - (1 - t) ** 2 * lower - t**2 * upper) / (2 * t * (1 - t))
+            edges.append(quad(name, lower, ctrl, upper))
+        elif lv[0] == "waist" and curve_hip and "hip" in by_name:
             xh, yh = by_name["hip"][2], by_name["hip"][1]
             ctrl = P(xh, HIP_CURVE_CONTROL * yh)
             if y_c >= yh - 1e-6 and y_c < 0:  # hem inside the hip curve: split it
