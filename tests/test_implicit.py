@@ -148,6 +148,36 @@ def test_membrane_hessian_is_symmetric_psd_under_random_shear_and_compression():
         assert _psd(h)
 
 
+@ti.kernel
+def _column(f: ti.template(), out: ti.template(), grad: ti.template()):
+    for _ in range(1):
+        v = f[0]
+        s = v.norm()
+        grad[0] = 7.0 * (s - 1.0) * v / s  # E a = 7: gradient of E a/2 (|f| − 1)²
+        out[None] = hessians.stretch_column_hessian(v, 1.0, 7.0)
+        out[None] += hessians.stretch_compression_term(v, 1.0, 7.0)
+
+
+@pytest.mark.parametrize("length", [0.9, 1.1])
+def test_stretch_column_hessian_plus_compression_term_is_exact(length):
+    f = ti.Vector.field(3, float, shape=1)
+    g = ti.Vector.field(3, float, shape=1)
+    h = ti.Matrix.field(3, 3, float, shape=())
+    v0 = length * np.array([0.6, -0.48, 0.64])
+    f.from_numpy(v0[None])
+    _column(f, h, g)
+    exact = h.to_numpy()
+    fd = np.zeros((3, 3))
+    for a in range(3):
+        for sign in (1, -1):
+            v = v0.copy()
+            v[a] += sign * 1e-7
+            f.from_numpy(v[None])
+            _column(f, h, g)
+            fd[:, a] += sign * g.to_numpy()[0] / 2e-7
+    assert np.abs(exact - fd).max() <= 1e-6 * np.abs(fd).max()
+
+
 def test_hinge_hessian_matches_finite_differences_at_the_rest_angle():
     x = np.array([[0.0, 0.0, 0.0], [0.02, 0.001, 0.0], [0.008, 0.015, 0.002],
                   [0.012, -0.014, 0.006]])  # fmt: skip

@@ -38,6 +38,23 @@ def stretch_column_hessian(f, area, e):
 
 
 @ti.func
+def stretch_compression_term(f, area, e):
+    """What :func:`stretch_column_hessian` clamps away: E a min(0, 1 − 1/|f|) (I − f̂f̂ᵀ).
+
+    Negative semi-definite; zero for a column in tension. The sum of the two is the exact
+    Hessian of E a/2 (|f| − 1)² everywhere (the geometric stiffness of compression).
+    """
+    s = ti.max(f.norm(), SHEAR_EPS)
+    fh = f / s
+    return (
+        area
+        * e
+        * ti.min(0.0, 1.0 - 1.0 / s)
+        * (ti.Matrix.identity(float, 3) - fh.outer_product(fh))
+    )
+
+
+@ti.func
 def shear_angle_gradient(f_u, f_v):
     """r = 2θ_s = asin(f̂_u·f̂_v) and (∂r/∂F_u, ∂r/∂F_v), as in Eq. 8 (3-vectors, 1/m)."""
     s_u = ti.max(f_u.norm(), SHEAR_EPS)

@@ -63,9 +63,10 @@ class ImplicitEulerSolver:
         model: Model,
         *,
         tol_m_s: float = 1e-3,
-        cg_tol: float = 1e-3,
+        cg_tol: float = 1e-1,
         max_newton: int = 50,
         max_cg: int = 2000,
+        compression_stiffness: bool = False,
     ):
         self.model = model
         self.fused = runtime.arch() == "cpu" and model.particle_count <= FUSED_PARTICLE_LIMIT
@@ -73,6 +74,7 @@ class ImplicitEulerSolver:
         self.cg_tol = float(cg_tol)
         self.max_newton = int(max_newton)
         self.max_cg = int(max_cg)
+        self.compression_stiffness = bool(compression_stiffness)
         n = max(1, model.particle_count)
         m = max(1, model.tri_count)
         vec = lambda k: ti.Vector.field(3, float, shape=k)  # noqa: E731
@@ -82,6 +84,7 @@ class ImplicitEulerSolver:
         self.pinv = mat(n)
         self.t_gu, self.t_gv, self.t_zu, self.t_zv = vec(m), vec(m), vec(m), vec(m)
         self.t_huu, self.t_huv, self.t_hvv = mat(m), mat(m), mat(m)
+        self.t_puu, self.t_pvv = mat(m), mat(m)  # PSD blocks, for the preconditioner
         self.h_grad = self.h_k = self.h_s = self.h_z = None
         if model.hinge_count:
             nh = model.hinge_count
@@ -107,6 +110,8 @@ class ImplicitEulerSolver:
         self.beta = ti.field(float, shape=())
         self.max_dx = ti.field(float, shape=())
         self.max_res = ti.field(float, shape=())
+        self.negative = ti.field(ti.i32, shape=())  # CG met negative curvature
+        self.cg_k = ti.field(ti.i32, shape=())
         self.bad_step = ti.field(ti.i32, shape=())
         self.bad_vertex = ti.field(ti.i32, shape=())
         self.reset_watch()
@@ -237,7 +242,7 @@ class ImplicitEulerSolver:
             return int(self._cg_loop(self.max_cg, target))
         for k in range(1, self.max_cg + 1):
             self._cg_iter()
-            if float(self.rr[None]) <= target:
+            if float(self.rr[None]) <= target or self.negative[None]:
                 return k
         return self.max_cg
 
@@ -363,9 +368,15 @@ class ImplicitEulerSolver:
             k = m.tri_stiffness[t]
             a = m.tri_rest_area[t]
             self.t_gu[t], self.t_gv[t] = forces.eq8_membrane_gradient(f_u, f_v, a, k[0], k[1], k[2])
-            self.t_huu[t], self.t_huv[t], self.t_hvv[t] = hessians.membrane_hessian_f(
-                f_u, f_v, a, k[0], k[1], k[2]
-            )
+            h_uu, h_uv, h_vv = hessians.membrane_hessian_f(f_u, f_v, a, k[0], k[1], k[2])
+            self.t_puu[t] = h_uu
+            self.t_pvv[t] = h_vv
+            if ti.static(self.compression_stiffness):
+                h_uu += hessians.stretch_compression_term(f_u, a, k[0])
+                h_vv += hessians.stretch_compression_term(f_v, a, k[1])
+            self.t_huu[t] = h_uu
+            self.t_huv[t] = h_uv
+            self.t_hvv[t] = h_vv
         if ti.static(m.hinge_count > 0):
             for h in range(m.hinge_count):
                 j = m.hinge_indices[h]
@@ -403,8 +414,8 @@ class ImplicitEulerSolver:
                 cu, cv = self._corner(t, slot % 3)
                 g += cu * self.t_gu[t] + cv * self.t_gv[t]
                 huv = self.t_huv[t]
-                d += cu * cu * self.t_huu[t] + cu * cv * (huv + huv.transpose())
-                d += cv * cv * self.t_hvv[t]
+                d += cu * cu * self.t_puu[t] + cu * cv * (huv + huv.transpose())
+                d += cv * cv * self.t_pvv[t]
             if ti.static(m.hinge_count > 0):
                 for s in range(m.vert_hinge_start[i], m.vert_hinge_start[i + 1]):
                     slot = m.vert_hinge_slot[s]
@@ -434,6 +445,8 @@ class ImplicitEulerSolver:
     def _cg_init(self):
         self.rz[None] = 0.0
         self.rr[None] = 0.0
+        self.negative[None] = 0
+        self.cg_k[None] = 0
         for i in range(self.model.particle_count):
             self.dx[i] = ti.Vector([0.0, 0.0, 0.0])
             r = -self.grad[i]
@@ -505,31 +518,43 @@ class ImplicitEulerSolver:
     def _cg_loop(self, max_cg: ti.i32, target: ti.f64) -> ti.i32:
         """CG iterations until |r|² <= target, all in one launch (serial loops)."""
         k = 0
-        while k < max_cg and self.rr[None] > target:
+        while k < max_cg and self.rr[None] > target and self.negative[None] == 0:
             self._cg_body()
             k += 1
         return k
 
     @ti.func
     def _cg_body(self):
-        """One preconditioned CG iteration (Hestenes-Stiefel form)."""
+        """One preconditioned CG iteration (Hestenes-Stiefel form), truncated at negative
+        curvature (p·Ap <= 0, possible with the compression term): then it stops and keeps
+        Δx, or takes the preconditioned steepest descent direction if that was the first
+        iteration (Nocedal and Wright, Newton-CG). Either is a descent direction."""
         self._apply(self.p, self.ap, self.pap)
+        if self.pap[None] <= 0.0:
+            self.negative[None] = 1
         self.alpha[None] = ti.cast(self.rz[None] / ti.max(self.pap[None], 1e-300), float)
         self.rz_new[None] = 0.0
-        self.rr[None] = 0.0
+        if self.negative[None] == 0:
+            self.rr[None] = 0.0
         for i in range(self.model.particle_count):
-            a = self.alpha[None]
-            self.dx[i] += a * self.p[i]
-            r = self.r[i] - a * self.ap[i]
-            z = self.pinv[i] @ r
-            self.r[i] = r
-            self.z[i] = z
-            self.rz_new[None] += ti.cast(r.dot(z), ti.f64)
-            self.rr[None] += ti.cast(r.dot(r), ti.f64)
-        self.beta[None] = ti.cast(self.rz_new[None] / ti.max(self.rz[None], 1e-300), float)
-        self.rz[None] = self.rz_new[None]
+            if self.negative[None] == 0:
+                a = self.alpha[None]
+                self.dx[i] += a * self.p[i]
+                r = self.r[i] - a * self.ap[i]
+                z = self.pinv[i] @ r
+                self.r[i] = r
+                self.z[i] = z
+                self.rz_new[None] += ti.cast(r.dot(z), ti.f64)
+                self.rr[None] += ti.cast(r.dot(r), ti.f64)
+            elif self.cg_k[None] == 0:
+                self.dx[i] = self.p[i]
+        if self.negative[None] == 0:
+            self.beta[None] = ti.cast(self.rz_new[None] / ti.max(self.rz[None], 1e-300), float)
+            self.rz[None] = self.rz_new[None]
+            self.cg_k[None] += 1
         for i in range(self.model.particle_count):
-            self.p[i] = self.z[i] + self.beta[None] * self.p[i]
+            if self.negative[None] == 0:
+                self.p[i] = self.z[i] + self.beta[None] * self.p[i]
 
     @ti.kernel
     def _post_solve(self):
