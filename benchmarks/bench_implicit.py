@@ -1,0 +1,248 @@
+"""Implicit Euler (Newton-PCG) against symplectic Euler: cost, accuracy and damping.
+
+Usage: python benchmarks/bench_implicit.py [sections] [--float64]
+sections (default: all): sizes, presets, fall, oscillation, cantilever
+
+* sizes: wall time per step for ~1k and ~5k vertex sheets (denim, membrane x100, hanging
+  from two corners, dt = 1/60 s), Newton and CG iterations per step.
+* presets: every fabric preset with stretch and shear x100, a 30 x 30 cm sheet (3 cm grid)
+  starting flat, hanging from two corners, 3 s with damping 8/s: implicit at dt = 1/60 s
+  against symplectic Euler at its stable step: max strain, final sag, largest vertex
+  distance, wall time.
+* fall: the same sheet (denim x100) without damping: the frame at which the sag first
+  reaches 90 % of its final value, implicit against explicit (over-damping would be late).
+* oscillation: a sheet pinned along its top edge swings from 20° without damping; the
+  mechanical energy (kinetic + gravity + elastic) lost per swing period at dt = 1/60 and
+  1/240 s, against the backward-Euler prediction (1 + (ωh)²)^(−2π/(ωh)).
+* cantilever: the heavy-elastica cantilever (validation.md §2) at λ = 30, h = 2.5 mm, to
+  the stop rule: tip error in % of L and wall time, implicit against symplectic Euler.
+"""
+
+import argparse
+import math
+import platform
+import sys
+import time
+
+import numpy as np
+
+from sandbox import runtime
+
+SECTIONS = ("sizes", "presets", "fall", "oscillation", "cantilever")
+G = 9.80665
+
+
+def stiff(preset: str, factor: float) -> dict:
+    from sandbox.sim.materials import get_material
+
+    m = get_material(preset)
+    return {
+        "preset": preset,
+        "stretch_u_N_m": m.stretch_u_N_m * factor,
+        "stretch_v_N_m": m.stretch_v_N_m * factor,
+        "shear_N_m": m.shear_N_m * factor,
+    }
+
+
+def sheet(material, integrator, *, size=0.3, edge=0.03, damping=0.0, dt="auto", rot=-90.0,
+          pins=None):  # fmt: skip
+    from sandbox.scene.build import build_scene
+    from sandbox.scene.spec import scene_from_dict
+
+    return build_scene(scene_from_dict({
+        "scene": {"name": "bench-implicit"},
+        "simulation": {"dt_s": dt, "damping_per_s": damping, "frame_rate_hz": 60,
+                       "integrator": integrator},
+        "cloth": [{"name": "sheet", "size_m": [size, size], "edge_length_m": edge,
+                   "mesher": "grid", "material": material, "origin_m": [-size / 2, 0.5, 0.0],
+                   "rotation_deg": [rot, 0.0, 0.0],
+                   "pins": pins if pins is not None else [{"corners": "top"}]}],
+    }, source="bench_implicit"))  # fmt: skip
+
+
+def run_frames(scene, frames, on_frame=None):
+    s = scene.solver
+    s.advance(scene.state, scene.control, 0.0, 1)  # compile
+    t0 = time.perf_counter()
+    for f in range(frames):
+        k = scene.steps_per_frame
+        s.advance(scene.state, scene.control, scene.dt_s, k, f * k)
+        if on_frame is not None:
+            on_frame(f, scene.state.positions())
+    wall = time.perf_counter() - t0
+    if s.first_bad() is not None:
+        raise SystemExit(f"NaN at {s.first_bad()}")
+    return wall
+
+
+def strain(scene, x):
+    m = scene.model
+    t = m.tri_indices_np
+    d = np.stack([x[t[:, 1]] - x[t[:, 0]], x[t[:, 2]] - x[t[:, 0]]], axis=2)
+    return float(np.linalg.norm(d @ m.tri_rest_inv_np, axis=1).max() - 1.0)
+
+
+def sag(scene, x):
+    p = scene.model.pinned_np
+    return float(x[p, 1].max() - x[:, 1].min())
+
+
+# ---------------------------------------------------------------------------- sections
+def sizes():
+    print("\n## sizes: denim x100 sheet 0.5 m, starts flat, two corners, dt = 1/60 s, the first "
+          "frames of the fall (the hardest part: large rotations every step)")  # fmt: skip
+    print(f"{'verts':>6} {'steps':>5} {'ms/step':>8} {'newton/step':>11} {'cg/step':>8} "
+          f"{'cg/newton':>9} {'unconverged':>11} {'us/(cg*vert)':>12}")  # fmt: skip
+    for n_side, frames in ((32, 30), (71, 8)):
+        edge = 0.5 / (n_side - 1)
+        sc = sheet(stiff("denim", 100), "implicit_euler", size=0.5, edge=edge * 1.0001)
+        wall = run_frames(sc, frames)
+        st = sc.solver.stats()
+        n, k = sc.model.particle_count, st["steps"]
+        print(f"{n:6d} {k:5d} {1e3 * wall / k:8.1f} {st['newton_iterations'] / k:11.2f} "
+              f"{st['cg_iterations'] / k:8.0f} "
+              f"{st['cg_iterations'] / st['newton_iterations']:9.0f} "
+              f"{st['unconverged_steps']:11d} "
+              f"{1e6 * wall / st['cg_iterations'] / n:12.3f}", flush=True)  # fmt: skip
+
+
+def presets():
+    from sandbox.sim.materials import EVERYDAY_PRESETS
+
+    print("\n## presets x100 (stretch, shear): 30 cm sheet, 3 cm grid, two corners, 3 s, "
+          "damping 8/s; implicit dt = 1/60 s vs symplectic Euler at its stable dt")  # fmt: skip
+    print(f"{'preset':>10} {'dt_ref[us]':>10} {'strain_ref':>10} {'strain_imp':>10} "
+          f"{'sag_ref[m]':>10} {'sag_imp[m]':>10} {'|dsag|/L':>9} {'max|dx|/L':>9} "
+          f"{'wall_ref':>8} {'wall_imp':>8} {'newton/step':>11} {'unconv':>6}")  # fmt: skip
+    for name in EVERYDAY_PRESETS:
+        mat = stiff(name, 100)
+        ref = sheet(mat, "symplectic_euler", damping=8.0)
+        w_ref = run_frames(ref, 180)
+        x_ref = ref.state.positions()
+        imp = sheet(mat, "implicit_euler", damping=8.0)
+        w_imp = run_frames(imp, 180)
+        x = imp.state.positions()
+        st = imp.solver.stats()
+        print(f"{name:>10} {ref.dt_s * 1e6:10.2f} {strain(ref, x_ref):10.2e} "
+              f"{strain(imp, x):10.2e} {sag(ref, x_ref):10.4f} {sag(imp, x):10.4f} "
+              f"{abs(sag(imp, x) - sag(ref, x_ref)) / 0.3:9.1e} "
+              f"{np.linalg.norm(x - x_ref, axis=1).max() / 0.3:9.1e} {w_ref:8.1f} {w_imp:8.1f} "
+              f"{st['newton_iterations'] / st['steps']:11.2f} {st['unconverged_steps']:6d}",
+              flush=True)  # fmt: skip
+
+
+def fall():
+    print("\n## fall: denim x100, 30 cm, two corners, no damping: sag after each frame [m]")
+    curves = {}
+    for integ in ("symplectic_euler", "implicit_euler"):
+        sc = sheet(stiff("denim", 100), integ)
+        s = []
+        run_frames(sc, 90, lambda f, x, sc=sc, s=s: s.append(sag(sc, x)))
+        curves[integ] = np.array(s)
+    e, i = curves["symplectic_euler"], curves["implicit_euler"]
+    final = 0.3  # the sheet hangs straight from its corners: sag → its size
+    for name, c in curves.items():
+        first = int(np.argmax(c >= 0.9 * final))
+        print(f"{name:>17}: first frame with sag >= 90 % of 0.3 m: {first + 1} "
+              f"(t = {(first + 1) / 60:.3f} s); sag at frames 5, 10, 15, 20, 30, 60: "
+              + ", ".join(f"{c[k - 1]:.4f}" for k in (5, 10, 15, 20, 30, 60)))  # fmt: skip
+    print(f"largest sag difference over the first 15 frames: {np.abs(e - i)[:15].max():.4f} m")
+
+
+def oscillation():
+    print("\n## oscillation: 30 cm denim sheet pinned along its top edge, released at 20° "
+          "from vertical, no damping; mechanical energy above the rest state")  # fmt: skip
+    for integ, dt in (("symplectic_euler", "auto"), ("implicit_euler", 1 / 60),
+                      ("implicit_euler", 1 / 240)):  # fmt: skip
+        sc = sheet("denim", integ, dt=dt, rot=-20.0, pins=[{"side": "top"}])
+        m = sc.model.mass_np
+        e, zc = [], []
+
+        def on_frame(f, x, sc=sc, e=e, zc=zc, m=m):
+            v = sc.state.velocities()
+            ek = 0.5 * float((m[:, None] * v * v).sum())
+            eg = G * float((m * x[:, 1]).sum())
+            e.append(ek + eg + sc.solver.internal_energy(sc.state))
+            zc.append(float((m * x[:, 2]).sum() / m.sum()))
+
+        run_frames(sc, 240, on_frame)
+        e = np.array(e)
+        zc = np.array(zc)
+        # rest energy: the sheet hanging straight down (gravity of the vertical drop)
+        x0 = sc.model.initial_positions_np
+        top = x0[:, 1].max()
+        uv = sc.model.rest_uv_np
+        y_rest = top - (uv[:, 1].max() - uv[:, 1])
+        e_rest = G * float((m * y_rest).sum())
+        em = e - e_rest
+        # period from the downward zero crossings of the centre-of-mass z
+        zz = zc - x0[sc.model.pinned_np, 2].mean()
+        cross = np.where((zz[:-1] > 0) & (zz[1:] <= 0))[0]
+        period_frames = float(np.diff(cross).mean()) if len(cross) > 1 else math.nan
+        h = sc.dt_s
+        omega = 2 * math.pi / (period_frames / 60) if period_frames == period_frames else math.nan
+        loss = math.nan
+        if len(cross) > 1:
+            k = int(round(period_frames))
+            loss = 1 - em[k] / em[0] if k < len(em) else math.nan
+        pred = 1 - (1 + (omega * h) ** 2) ** (-2 * math.pi / (omega * h))
+        head = f"{integ:>17} dt = {h:.3g} s: period {period_frames / 60:.3f} s, "
+        if integ == "symplectic_euler":
+            print(head + f"energy lost over the first period {100 * loss:.2f} % (no damping)")
+        else:
+            print(head + f"energy lost over the first period {100 * loss:.1f} % (backward "
+                  f"Euler predicts {100 * pred:.1f} % for ω = {omega:.2f} rad/s)")  # fmt: skip
+
+
+def cantilever():
+    from sandbox.scene.build import build_scene
+    from sandbox.scene.run import run_scene
+    from sandbox.validate.cantilever import LENGTH_M, cantilever_spec
+    from sandbox.validate.elastica import tip
+
+    print("\n## cantilever λ = 30, h = 2.5 mm, to the stop rule (2 µm/frame for 3 frames)")
+    lam, edge = 30.0, 0.0025
+    for integ, tol in (("symplectic_euler", None), ("implicit_euler", 1e-3),
+                       ("implicit_euler", 1e-4)):  # fmt: skip
+        spec = cantilever_spec(lam, edge)
+        spec.simulation.integrator = integ
+        sc = build_scene(spec)
+        if tol is not None:
+            sc.solver.tol_m_s = tol
+        t0 = time.perf_counter()
+        res = run_scene(sc, progress=False)
+        wall = time.perf_counter() - t0
+        x = res.positions
+        uv = sc.model.rest_uv_np
+        root = x[np.abs(uv[:, 0]) < 1e-9].mean(axis=0)
+        tp = x[np.abs(uv[:, 0] - LENGTH_M) < 1e-9].mean(axis=0)
+        reach, drop = (tp[0] - root[0]) / LENGTH_M, (root[1] - tp[1]) / LENGTH_M
+        ed, er = tip(lam)
+        err = 100 * math.hypot(drop - ed, reach - er)
+        extra = ""
+        if integ == "implicit_euler":
+            st = sc.solver.stats()
+            extra = (f" tol {tol:g} m/s, newton/step {st['newton_iterations'] / st['steps']:.2f},"
+                     f" cg/step {st['cg_iterations'] / st['steps']:.0f}, unconverged "
+                     f"{st['unconverged_steps']}")  # fmt: skip
+        print(f"{integ:>17}: dt {sc.dt_s:.3g} s, {res.metrics['steps']} steps, "
+              f"{sc.model.particle_count} verts, tip error {err:.3f} %L, wall {wall:.2f} s "
+              f"(incl. compile {res.metrics['compile_time_s']:.1f} s not counted: "
+              f"run {res.metrics['wall_time_s']:.2f} s), converged {res.converged}{extra}",
+              flush=True)  # fmt: skip
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("sections", nargs="*", default=list(SECTIONS), choices=[*SECTIONS, []])
+    ap.add_argument("--float64", action="store_true")
+    args = ap.parse_args()
+    runtime.init("cpu", float64=args.float64)
+    print(f"bench_implicit: {platform.machine()} {platform.processor() or 'cpu'}, python "
+          f"{sys.version.split()[0]}, {'float64' if args.float64 else 'float32'}")  # fmt: skip
+    for s in args.sections or SECTIONS:
+        globals()[s]()
+
+
+if __name__ == "__main__":
+    main()
