@@ -1,11 +1,12 @@
-"""Step time with and without body collision: a ~10k-vertex sheet on the mannequin.
+"""Step time without collision, with body collision, and with self-collision too.
 
 Usage: python benchmarks/bench_collision.py [--vertices 10000] [--settle 0.3]
 
 The sheet (1.2 x 1.2 m, jersey) starts flat above the shoulders and falls onto the default
 mannequin (~17k triangles). After ``--settle`` simulated seconds, so that most vertices are
-near the body, we time solver steps with the body collider and the same steps with none.
-Target (issue 4): body collision adds at most 50 % to the step.
+near the body, we time solver steps with the body collider, with the body collider and
+self-collision, and the same steps with none. Targets (issue 4): body collision adds at
+most 50 % to the step, self-collision at most 150 %.
 """
 
 import argparse
@@ -19,7 +20,7 @@ from sandbox.scene.build import build_scene
 from sandbox.scene.spec import scene_from_dict
 
 
-def spec(n_vertices: int, with_body: bool):
+def spec(n_vertices: int, with_body: bool, with_self: bool = False):
     side = 1.2
     h = side * math.sqrt(1.15 / n_vertices)
     data = {
@@ -31,6 +32,7 @@ def spec(n_vertices: int, with_body: bool):
     }  # fmt: skip
     if with_body:
         data["collider"] = [{"name": "body", "shape": "mannequin", "size": 12}]
+        data["collision"] = {"self_collision": with_self}
     return scene_from_dict(data, source="bench")
 
 
@@ -41,17 +43,22 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=500)
     args = ap.parse_args()
     runtime.init("cpu")
+    both = build_scene(spec(args.vertices, True, True))
     body = build_scene(spec(args.vertices, True))
     free = build_scene(spec(args.vertices, False))
-    free.dt_s = body.dt_s
-    settle = round(args.settle / body.dt_s)
-    body.solver.advance(body.state, body.control, body.dt_s, settle)
-    free.state.set(body.state.positions(), body.state.velocities())
-    results = {"no collision": [], "body collision": []}
+    free.dt_s = body.dt_s = both.dt_s
+    settle = round(args.settle / both.dt_s)
+    both.solver.advance(both.state, both.control, both.dt_s, settle)
     for sc in (free, body):
+        sc.state.set(both.state.positions(), both.state.velocities())
+    runs = (("no collision", free), ("body collision", body), ("body + self", both))
+    results = {name: [] for name, _ in runs}
+    for _, sc in runs:
         sc.solver.advance(sc.state, sc.control, sc.dt_s, 2)  # compile
+    sc_self = both.model.self_collider
+    rebuilds0 = sc_self.rebuilds[None]
     for _ in range(5):  # interleaved, best of five: this VM's timings vary by ±15 %
-        for name, sc in (("no collision", free), ("body collision", body)):
+        for name, sc in runs:
             ti.sync()
             t0 = time.perf_counter()
             sc.solver.advance(sc.state, sc.control, sc.dt_s, args.steps // 5)
@@ -73,8 +80,14 @@ def main() -> None:
     for name, t in results.items():
         print(f"  {name:15s} {t * 1e3:8.2f} ms/step")
     extra = results["body collision"] / results["no collision"] - 1.0
+    extra_self = results["body + self"] / results["no collision"] - 1.0
     print(f"  body collision adds {100 * extra:.0f} % (target <= 50 %); grid rebuild "
           f"{rebuild * 1e3:.1f} ms")  # fmt: skip
+    print(
+        f"  self-collision too adds {100 * extra_self:.0f} % (target <= 150 %); "
+        f"{sc_self.pair_count[None]} candidate pairs, "
+        f"{sc_self.rebuilds[None] - rebuilds0} list rebuilds in {args.steps + 2} steps"
+    )
 
 
 if __name__ == "__main__":
