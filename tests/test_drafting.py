@@ -132,6 +132,20 @@ def test_girths_are_body_plus_ease(name):
     assert checked >= len(SIZES)  # at least one girth per size for every garment
 
 
+@pytest.mark.parametrize("name", ["t-shirt", "long-sleeve-shirt", "blouse"])
+def test_cap_top_meets_the_shoulder_seam(name):
+    """Parametric matching of the merged cap line: the cap top is at the same fraction of
+    the cap line as the shoulder point of the armhole line (front and back eased alike)."""
+    for size in (SIZES[0], 12, SIZES[-1]):
+        d = drafted(name, size)
+        for s in ("left", "right"):
+            sl = edges_of(d["panels"][f"sleeve_{s}"])
+            cf, cb = length(sl["cap_front"]), length(sl["cap_back"])
+            af = length(edges_of(d["panels"]["front"])[f"armhole_{s}"])
+            ab = length(edges_of(d["panels"]["back"])[f"armhole_{s}"])
+            assert cf / (cf + cb) == pytest.approx(af / (af + ab), abs=1e-4)
+
+
 @pytest.mark.parametrize("name", ["t-shirt", "long-sleeve-shirt", "raglan-top", "blouse"])
 def test_sleeve_biceps_is_top_arm_plus_ease(name):
     from sandbox.drafting.body import body_dims
