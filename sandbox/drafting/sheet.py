@@ -94,7 +94,9 @@ def main(argv: list[str] | None = None) -> int:
 
     ap = argparse.ArgumentParser(prog="python -m sandbox.drafting.sheet")
     ap.add_argument("--size", type=int, default=12)
-    ap.add_argument("--out", type=Path, default=Path("docs/garments"))
+    ap.add_argument(
+        "--out", type=Path, default=Path(__file__).resolve().parents[2] / "docs" / "garments"
+    )
     ap.add_argument("--px-per-cm", type=float, default=3.0)
     args = ap.parse_args(argv)
     m = size_entry(args.size).measurements
