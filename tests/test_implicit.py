@@ -29,16 +29,19 @@ def _fields():
             "grad": ti.Vector.field(3, float, shape=4),
             "hess": ti.Matrix.field(3, 3, float, shape=(4, 4)),
             "par": ti.field(float, shape=4),
+            "diff": ti.field(float, shape=()),
         }
     return _X
 
 
 @ti.kernel
 def _membrane(x: ti.template(), rinv: ti.template(), grad: ti.template(),
-              hess: ti.template(), par: ti.template()):  # fmt: skip
+              hess: ti.template(), par: ti.template(), diff: ti.template()):  # fmt: skip
     r = rinv[None]
     f_u, f_v = forces.deformation_columns(x[0], x[1], x[2], r)
     g_u, g_v = forces.eq8_membrane_gradient(f_u, f_v, par[0], par[1], par[2], par[3])
+    m_u, m_v = hessians.membrane_gradient_f(f_u, f_v, par[0], par[1], par[2], par[3])
+    diff[None] = ti.max((g_u - m_u).norm(), (g_v - m_v).norm()) / (g_u.norm() + g_v.norm())
     h_uu, h_uv, h_vv = hessians.membrane_hessian_f(f_u, f_v, par[0], par[1], par[2], par[3])
     cu = ti.Vector([-(r[0, 0] + r[1, 0]), r[0, 0], r[1, 0]])
     cv = ti.Vector([-(r[0, 1] + r[1, 1]), r[0, 1], r[1, 1]])
@@ -87,7 +90,7 @@ def _eval(kind, x, **p):
     if kind == "membrane":
         f["rinv"][None] = ti.Matrix(p["rinv"].tolist())
         f["par"].from_numpy(np.array([p["area"], *p["e"]], float))
-        _membrane(f["x"], f["rinv"], f["grad"], f["hess"], f["par"])
+        _membrane(f["x"], f["rinv"], f["grad"], f["hess"], f["par"], f["diff"])
     elif kind == "hinge":
         f["par"].from_numpy(np.array([p["k"], p["rest"], 0.0, 0.0]))
         _hinge(f["x"], f["grad"], f["hess"], f["par"])
@@ -139,11 +142,12 @@ def test_membrane_hessian_matches_finite_differences_in_tension_without_shear():
     assert np.allclose(h, h.T, atol=1e-9 * np.abs(h).max())
 
 
-def test_membrane_hessian_is_symmetric_psd_under_random_shear_and_compression():
+def test_membrane_gradient_is_eq8_and_hessian_is_symmetric_psd_under_shear_and_compression():
     rng = np.random.default_rng(2)
     for _ in range(20):
         x = np.column_stack([REST, np.zeros(3)]) + rng.normal(scale=0.004, size=(3, 3))
         _, h = _eval("membrane", x, **_tri(x))
+        assert float(_fields()["diff"][None]) < 1e-12  # the solver's gradient is Eq. 8's
         assert np.allclose(h, h.T, atol=1e-9 * np.abs(h).max())
         assert _psd(h)
 

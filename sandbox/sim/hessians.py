@@ -66,12 +66,24 @@ def shear_angle_gradient(f_u, f_v):
     w_u = vh - c * uh
     w_v = uh - c * vh
     s = w_u.norm()
-    a_u = ti.Vector([0.0, 0.0, 0.0])
-    a_v = ti.Vector([0.0, 0.0, 0.0])
+    a_u = 0.0 * w_u  # zero of the inputs' precision (the solver works in float64)
+    a_v = 0.0 * w_v
     if s > SHEAR_EPS:
         a_u = w_u / (s * s_u)
         a_v = w_v / (s * s_v)
     return r, a_u, a_v
+
+
+@ti.func
+def membrane_gradient_f(f_u, f_v, area, e_u, e_v, e_s):
+    """(∂U/∂F_u, ∂U/∂F_v) of Eq. 7, the same values as forces.eq8_membrane_gradient (tested)
+    built from :func:`shear_angle_gradient`, and kept in the precision of its inputs."""
+    s_u = ti.max(f_u.norm(), SHEAR_EPS)
+    s_v = ti.max(f_v.norm(), SHEAR_EPS)
+    r, a_u, a_v = shear_angle_gradient(f_u, f_v)
+    g_u = area * (e_u * (s_u - 1.0) * f_u / s_u + e_s * r * a_u)
+    g_v = area * (e_v * (s_v - 1.0) * f_v / s_v + e_s * r * a_v)
+    return g_u, g_v
 
 
 @ti.func
@@ -97,7 +109,7 @@ def seam_spring_hessian(d, rest, k):
     r = 0 gives k I (exact). Otherwise exact when stretched, transverse part clamped at 0
     when compressed (PSD).
     """
-    h = k * ti.Matrix.identity(float, 3)
+    h = k * (ti.Matrix.identity(float, 3) + 0.0 * d.outer_product(d))  # precision of d
     if rest > 0.0:
         length = ti.max(d.norm(), SHEAR_EPS)
         dh = d / length

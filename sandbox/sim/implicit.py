@@ -21,11 +21,12 @@ iteration stops when the estimated distance to the solution of this step,
 
     tol = tol_m_s · h + rel_tol · max_i |x_i − x_n,i|
 
-an absolute velocity tolerance (default 1e-4 m/s: 1.7 µm at h = 1/60 s) plus 1 % of the
-largest motion in the step. Both parts matter: an absolute tolerance alone (we measured
-1e-3 m/s) lets a slowly creeping cloth lag behind every step, which acts as extra damping
-(the cantilever then took 1424 steps instead of 82 to settle); the relative part stops
-Newton early only when the cloth moves fast. A step that reaches ``max_newton``
+an absolute velocity tolerance (default 1e-4 m/s: 1.7 µm at h = 1/60 s) plus, optionally
+(``rel_tol``, default 0), a fraction of the largest motion in the step. Loose tolerances
+fake damping: Newton stopped early leaves every step short of its solution in the same
+(slow) direction, so a creeping cloth lags. Measured on the cantilever (docs/implicit.md):
+1e-3 m/s, or 1e-4 m/s + 1 % of the motion, took 4-16x more steps to settle than 1e-4 m/s.
+A step that reaches ``max_newton``
 iterations first is counted as unconverged in :meth:`stats` (never silently).
 
 Contact: after the solve, v_n+1 = (x − x_n)/h is revised by each collider's ``respond`` and
@@ -52,6 +53,11 @@ from sandbox.sim.model import Control, Model, State  # noqa: F401 (used in annot
 # (no launch and read-back per iteration); above it each iteration is one parallel launch.
 FUSED_PARTICLE_LIMIT = 3000
 NO_STEP = 2**31 - 1
+REAL = ti.f64
+"""The solver's own precision, whatever Taichi's default float: with float32 positions a
+stiff membrane's strain (x_j − x_i, |F_u| − 1) drowns in round-off (the residual force of
+denim x100 stayed at ~20x the vertex weight), so Newton could not reach its tolerance. The
+state is read and written in the default float; everything in between is float64."""
 ARMIJO = 1e-4
 
 
@@ -62,7 +68,7 @@ class ImplicitEulerSolver:
     Args:
         model: the cloth model.
         tol_m_s: absolute part of the Newton tolerance, as a velocity [m/s].
-        rel_tol: relative part: a fraction of the largest vertex motion of the step.
+        rel_tol: relative part: a fraction of the largest vertex motion of the step (0: off).
         cg_tol: CG stops when |r| <= cg_tol |r_0| (2-norm of the force residual).
         compression_stiffness: keep the (negative) geometric stiffness of compressed
             warp/weft columns in the Newton matrix and truncate CG at negative curvature.
@@ -80,7 +86,7 @@ class ImplicitEulerSolver:
         max_newton: int = 50,
         max_cg: int = 2000,
         compression_stiffness: bool = False,
-        rel_tol: float = 1e-2,
+        rel_tol: float = 0.0,
     ):
         self.model = model
         self.fused = runtime.arch() == "cpu" and model.particle_count <= FUSED_PARTICLE_LIMIT
@@ -92,8 +98,8 @@ class ImplicitEulerSolver:
         self.compression_stiffness = bool(compression_stiffness)
         n = max(1, model.particle_count)
         m = max(1, model.tri_count)
-        vec = lambda k: ti.Vector.field(3, float, shape=k)  # noqa: E731
-        mat = lambda k: ti.Matrix.field(3, 3, float, shape=k)  # noqa: E731
+        vec = lambda k: ti.Vector.field(3, REAL, shape=k)  # noqa: E731
+        mat = lambda k: ti.Matrix.field(3, 3, REAL, shape=k)  # noqa: E731
         self.x0, self.xh, self.x, self.xt, self.vel = vec(n), vec(n), vec(n), vec(n), vec(n)
         self.grad, self.dx, self.r, self.z, self.p, self.ap = (vec(n) for _ in range(6))
         self.pinv = mat(n)
@@ -104,16 +110,16 @@ class ImplicitEulerSolver:
         if model.hinge_count:
             nh = model.hinge_count
             self.h_grad = vec(4 * nh)
-            self.h_k = ti.field(float, shape=nh)
-            self.h_s = ti.field(float, shape=nh)
-            self.h_z = ti.field(float, shape=nh)
+            self.h_k = ti.field(REAL, shape=nh)
+            self.h_s = ti.field(REAL, shape=nh)
+            self.h_z = ti.field(REAL, shape=nh)
         self.s_grad = self.s_hess = self.s_z = None
         if model.seam_count:
             ns = model.seam_count
             self.s_grad, self.s_hess, self.s_z = vec(ns), mat(ns), vec(ns)
         # live scalars (0-D fields: no recompilation when they change)
-        self.h = ti.field(float, shape=())
-        self.gamma = ti.field(float, shape=())
+        self.h = ti.field(REAL, shape=())
+        self.gamma = ti.field(REAL, shape=())
         self.energy = ti.field(ti.f64, shape=())
         self.energy_t = ti.field(ti.f64, shape=())
         self.rz = ti.field(ti.f64, shape=())
@@ -121,11 +127,11 @@ class ImplicitEulerSolver:
         self.pap = ti.field(ti.f64, shape=())
         self.rr = ti.field(ti.f64, shape=())
         self.slope = ti.field(ti.f64, shape=())
-        self.alpha = ti.field(float, shape=())
-        self.beta = ti.field(float, shape=())
-        self.max_dx = ti.field(float, shape=())
-        self.max_res = ti.field(float, shape=())
-        self.max_move = ti.field(float, shape=())
+        self.alpha = ti.field(REAL, shape=())
+        self.beta = ti.field(REAL, shape=())
+        self.max_dx = ti.field(REAL, shape=())
+        self.max_res = ti.field(REAL, shape=())
+        self.max_move = ti.field(REAL, shape=())
         self.negative = ti.field(ti.i32, shape=())  # CG met negative curvature
         self.cg_k = ti.field(ti.i32, shape=())
         self.bad_step = ti.field(ti.i32, shape=())
@@ -246,7 +252,7 @@ class ImplicitEulerSolver:
         """(M (1/h² + γ/h) + H) y for y numpy (n, 3), with the Hessians of the last Newton
         evaluation (the end of the last step). For tests and diagnostics."""
         n = self.model.particle_count
-        self.p.from_numpy(np.asarray(y, dtype=runtime.float_dtype()))
+        self.p.from_numpy(np.asarray(y, dtype=np.float64))
         self._apply_kernel()
         return self.ap.to_numpy()[:n].astype(np.float64)
 
@@ -271,8 +277,7 @@ class ImplicitEulerSolver:
         e0 = float(self.energy[None])
         slope = float(self.slope[None])
         alpha, cuts = 1.0, 0
-        # round-off allowance: E is summed in float64 from positions in the default float
-        eps = 1e-12 * abs(e0) if _is_f64() else 1e-6 * abs(e0)
+        eps = 1e-12 * abs(e0)  # round-off allowance (E, x and the gradient are float64)
         while True:
             self._trial(alpha)
             if float(self.energy_t[None]) <= e0 + ARMIJO * alpha * slope + eps or cuts >= 30:
@@ -322,7 +327,7 @@ class ImplicitEulerSolver:
             self.x0[i] = x_in[i]
             self.xh[i] = x_in[i] + h * v_in[i] + h * h * gravity[None]
             self.x[i] = x_in[i]  # pinned vertices stay
-            self.dx[i] = ti.Vector([0.0, 0.0, 0.0])
+            self.dx[i] = ti.Vector.zero(REAL, 3)
             if self.model.particle_inv_mass[i] > 0.0:
                 self.dx[i] = h * v_in[i]  # x_n + h v_n; _trial(1) adds h² g on top
 
@@ -341,7 +346,7 @@ class ImplicitEulerSolver:
     @ti.func
     def _inertia(self, i, xi):
         """m/(2h²)|x − x̂|² + γm/(2h)|x − x_n|² of vertex i [J] (0 when pinned)."""
-        e = 0.0
+        e = ti.cast(0.0, REAL)
         if self.model.particle_inv_mass[i] > 0.0:
             h = self.h[None]
             m = self.model.particle_mass[i]
@@ -387,7 +392,7 @@ class ImplicitEulerSolver:
             f_u, f_v = forces.deformation_columns(x[i[0]], x[i[1]], x[i[2]], m.tri_rest_inv[t])
             k = m.tri_stiffness[t]
             a = m.tri_rest_area[t]
-            self.t_gu[t], self.t_gv[t] = forces.eq8_membrane_gradient(f_u, f_v, a, k[0], k[1], k[2])
+            self.t_gu[t], self.t_gv[t] = hessians.membrane_gradient_f(f_u, f_v, a, k[0], k[1], k[2])
             h_uu, h_uv, h_vv = hessians.membrane_hessian_f(f_u, f_v, a, k[0], k[1], k[2])
             self.t_puu[t] = h_uu
             self.t_pvv[t] = h_vv
@@ -417,7 +422,7 @@ class ImplicitEulerSolver:
                 g = k * d
                 if r > 0.0:
                     length = d.norm()
-                    g = ti.Vector([0.0, 0.0, 0.0])
+                    g = ti.Vector.zero(REAL, 3)
                     if length > 1e-12:
                         g = k * (length - r) / length * d
                 self.s_grad[q] = g
@@ -426,8 +431,8 @@ class ImplicitEulerSolver:
         h = self.h[None]
         c_mass = 1.0 / (h * h) + self.gamma[None] / h
         for i in range(m.particle_count):
-            g = ti.Vector([0.0, 0.0, 0.0])
-            d = ti.Matrix.zero(float, 3, 3)
+            g = ti.Vector.zero(REAL, 3)
+            d = ti.Matrix.zero(REAL, 3, 3)
             for s in range(m.vert_tri_start[i], m.vert_tri_start[i + 1]):
                 slot = m.vert_tri_slot[s]
                 t = slot // 3
@@ -452,14 +457,14 @@ class ImplicitEulerSolver:
             if m.particle_inv_mass[i] > 0.0:
                 xi = x[i]
                 g += mi * ((xi - self.xh[i]) / (h * h) + self.gamma[None] * (xi - self.x0[i]) / h)
-                d += mi * c_mass * ti.Matrix.identity(float, 3)
+                d += mi * c_mass * ti.Matrix.identity(REAL, 3)
                 self.grad[i] = g
                 self.pinv[i] = d.inverse()
                 self.energy[None] += ti.cast(self._inertia(i, xi), ti.f64)
                 ti.atomic_max(self.max_res[None], g.norm() / (mi * 9.80665))
             else:
-                self.grad[i] = ti.Vector([0.0, 0.0, 0.0])
-                self.pinv[i] = ti.Matrix.zero(float, 3, 3)
+                self.grad[i] = ti.Vector.zero(REAL, 3)
+                self.pinv[i] = ti.Matrix.zero(REAL, 3, 3)
 
     @ti.kernel
     def _cg_init(self):
@@ -468,7 +473,7 @@ class ImplicitEulerSolver:
         self.negative[None] = 0
         self.cg_k[None] = 0
         for i in range(self.model.particle_count):
-            self.dx[i] = ti.Vector([0.0, 0.0, 0.0])
+            self.dx[i] = ti.Vector.zero(REAL, 3)
             r = -self.grad[i]
             z = self.pinv[i] @ r
             self.r[i] = r
@@ -483,8 +488,8 @@ class ImplicitEulerSolver:
         m = self.model
         for t in range(m.tri_count):
             i = m.tri_indices[t]
-            yu = ti.Vector([0.0, 0.0, 0.0])
-            yv = ti.Vector([0.0, 0.0, 0.0])
+            yu = ti.Vector.zero(REAL, 3)
+            yv = ti.Vector.zero(REAL, 3)
             for c in ti.static(range(3)):
                 cu, cv = self._corner(t, c)
                 yu += cu * p[i[c]]
@@ -495,7 +500,7 @@ class ImplicitEulerSolver:
         if ti.static(m.hinge_count > 0):
             for h in range(m.hinge_count):
                 j = m.hinge_indices[h]
-                s = 0.0
+                s = ti.cast(0.0, REAL)
                 for k in ti.static(range(4)):
                     s += self.h_grad[4 * h + k].dot(p[j[k]])
                 self.h_z[h] = self.h_k[h] * s
@@ -506,7 +511,7 @@ class ImplicitEulerSolver:
         c_mass = 1.0 / (hh * hh) + self.gamma[None] / hh
         pap[None] = 0.0
         for i in range(m.particle_count):
-            y = ti.Vector([0.0, 0.0, 0.0])
+            y = ti.Vector.zero(REAL, 3)
             if m.particle_inv_mass[i] > 0.0:
                 y = m.particle_mass[i] * c_mass * p[i]
                 for s in range(m.vert_tri_start[i], m.vert_tri_start[i + 1]):
@@ -552,7 +557,7 @@ class ImplicitEulerSolver:
         self._apply(self.p, self.ap, self.pap)
         if self.pap[None] <= 0.0:
             self.negative[None] = 1
-        self.alpha[None] = ti.cast(self.rz[None] / ti.max(self.pap[None], 1e-300), float)
+        self.alpha[None] = ti.cast(self.rz[None] / ti.max(self.pap[None], 1e-300), REAL)
         self.rz_new[None] = 0.0
         if self.negative[None] == 0:
             self.rr[None] = 0.0
@@ -569,7 +574,7 @@ class ImplicitEulerSolver:
             elif self.cg_k[None] == 0:
                 self.dx[i] = self.p[i]
         if self.negative[None] == 0:
-            self.beta[None] = ti.cast(self.rz_new[None] / ti.max(self.rz[None], 1e-300), float)
+            self.beta[None] = ti.cast(self.rz_new[None] / ti.max(self.rz[None], 1e-300), REAL)
             self.rz[None] = self.rz_new[None]
             self.cg_k[None] += 1
         for i in range(self.model.particle_count):
@@ -626,7 +631,7 @@ class ImplicitEulerSolver:
         m = self.model
         h = self.h[None]
         for i in range(m.particle_count):
-            v = ti.Vector([0.0, 0.0, 0.0])
+            v = ti.Vector.zero(REAL, 3)
             if m.particle_inv_mass[i] > 0.0:
                 v = (self.x[i] - self.x0[i]) / h
                 for c in ti.static(m.colliders):
@@ -643,8 +648,8 @@ class ImplicitEulerSolver:
             if not (ti.abs(x_new).max() < 1e30):  # catches NaN and infinity
                 ti.atomic_min(self.bad_step[None], index)
                 ti.atomic_min(self.bad_vertex[None], i)
-            x_out[i] = x_new
-            v_out[i] = v
+            x_out[i] = ti.cast(x_new, float)
+            v_out[i] = ti.cast(v, float)
 
 
 def newton_error_estimate(step: float, previous: float, tol: float) -> float:
@@ -661,9 +666,3 @@ def newton_error_estimate(step: float, previous: float, tol: float) -> float:
         return step if step <= 1e-3 * tol else math.inf
     rho = step / previous if previous > 0.0 else math.inf
     return step / (1.0 - rho) if rho < 1.0 else math.inf
-
-
-def _is_f64() -> bool:
-    from sandbox import runtime
-
-    return runtime.is_float64()
