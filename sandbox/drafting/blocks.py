@@ -402,26 +402,41 @@ def _cap(name: str, w: float, h: float) -> dict:
 
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(48)
 _GL_T = 0.5 * (_GL_X + 1.0)
+# The cap curve is (w a(t), h b(t)) with fixed a, b (see _cap): its speed is
+# sqrt(w^2 a'^2 + h^2 b'^2), so the length needs a' and b' at the nodes once.
+_CAP_A = np.array([1.0, 0.55, 0.45, 0.0])
+_CAP_B = np.array([0.0, 0.12, 1.0, 1.0])
+
+
+def _derivative_at_nodes(c: np.ndarray) -> np.ndarray:
+    t = _GL_T
+    return 3 * (
+        (1 - t) ** 2 * (c[1] - c[0]) + 2 * t * (1 - t) * (c[2] - c[1]) + t**2 * (c[3] - c[2])
+    )
+
+
+_CAP_DA2 = _derivative_at_nodes(_CAP_A) ** 2
+_CAP_DB2 = _derivative_at_nodes(_CAP_B) ** 2
 
 
 def _cap_length(w: float, h: float) -> float:
     """Arc length [cm] of :func:`_cap` (48-point Gauss-Legendre on the smooth cubic)."""
-    n = np.array([[w, 0.0], [0.55 * w, 0.12 * h], [0.45 * w, h], [0.0, h]])
-    t = _GL_T[:, None]
-    d = 3 * ((1 - t) ** 2 * (n[1] - n[0]) + 2 * t * (1 - t) * (n[2] - n[1]) + t**2 * (n[3] - n[2]))
-    return float(0.5 * np.sum(_GL_W * np.linalg.norm(d, axis=1)))
+    return float(0.5 * np.sum(_GL_W * np.sqrt(w * w * _CAP_DA2 + h * h * _CAP_DB2)))
 
 
 def _solve_width(target: float, h: float) -> float:
-    """Half width w of the cap whose curve is ``target`` long at cap height h."""
-    lo, hi = 0.5, 80.0
-    for _ in range(45):
-        w = 0.5 * (lo + hi)
-        if _cap_length(w, h) < target:
-            lo = w
-        else:
-            hi = w
-    return 0.5 * (lo + hi)
+    """Half width w of the cap whose curve is ``target`` long at cap height h (Newton on
+    the convex, increasing L(w); w = 0.5 cm if even a narrow cap is too long)."""
+    w = max(target, 1.0)
+    for _ in range(40):
+        q = np.sqrt(w * w * _CAP_DA2 + h * h * _CAP_DB2)
+        f = 0.5 * float(np.sum(_GL_W * q)) - target
+        df = 0.5 * float(np.sum(_GL_W * w * _CAP_DA2 / q))
+        step = f / max(df, 1e-9)
+        w = max(w - step, 0.5 * w, 0.5)
+        if abs(step) < 1e-7:
+            break
+    return w
 
 
 def _arm_girth(b: BodyDims, from_shoulder: float, cap: float) -> float:
