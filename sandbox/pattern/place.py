@@ -148,6 +148,7 @@ class PlacementBody:
         }
         self._frames: dict = {}
         self._bands: dict = {}
+        self._curves: dict = {}
         self._scene = None
 
     # --- landmarks and axes ---------------------------------------------------------
@@ -241,6 +242,14 @@ class PlacementBody:
 
     def curve(self, frame: BodyFrame, h: float, offset_m: float) -> _Curve:
         """The section hull at height h offset by ``offset_m``, containing the axis."""
+        key = (frame.body, tuple(np.round(frame.origin, 6)), round(h, 6), round(offset_m, 6))
+        if key not in self._curves:
+            if len(self._curves) > 20000:
+                self._curves.clear()
+            self._curves[key] = self._curve(frame, h, offset_m)
+        return self._curves[key]
+
+    def _curve(self, frame: BodyFrame, h: float, offset_m: float) -> _Curve:
         pts = self.section_points(frame, h)
         ring = np.linspace(0, 2 * np.pi, OFFSET_DIRECTIONS, endpoint=False)
         disc = np.stack([np.cos(ring), np.sin(ring)], 1)
@@ -454,10 +463,11 @@ def _lift_over_torso(body, frame, out, torso_panels, limb_panels, pattern) -> No
 # --- wrapping -------------------------------------------------------------------------
 def _wrap(body: PlacementBody, frame: BodyFrame, theta: float, s, h, clearance: float,
           before: float, after: float) -> np.ndarray:  # fmt: skip
-    lo, hi = float(h.min()), float(h.max())
-    nb = max(2, int(math.ceil((hi - lo) / ROW_M)) + 1)
-    rows = np.linspace(lo, hi, nb)
-    step = rows[1] - rows[0] if nb > 1 else 1.0
+    # rows on a fixed grid of heights (shared by all panels: the curves are cached)
+    first, last = math.floor(float(h.min()) / ROW_M), math.ceil(float(h.max()) / ROW_M)
+    last = max(last, first + 1)
+    rows = ROW_M * np.arange(first, last + 1)
+    nb, lo, step = len(rows), float(rows[0]), ROW_M
     # the panel's width either side of the anchor line, per row
     k = np.clip(np.rint((h - lo) / step).astype(int), 0, nb - 1)
     need_after = np.full(nb, -np.inf)
@@ -485,7 +495,7 @@ def _wrap(body: PlacementBody, frame: BodyFrame, theta: float, s, h, clearance: 
         curves.append(c)
         starts.append(c.arc_at_angle(theta))
     f = np.clip((h - lo) / step, 0, nb - 1)
-    k0 = np.minimum(np.floor(f).astype(int), nb - 2) if nb > 1 else np.zeros(len(h), int)
+    k0 = np.minimum(np.floor(f).astype(int), nb - 2)
     w = (f - k0)[:, None]
     uw = np.zeros((len(h), 2))
     for j in np.unique(np.concatenate([k0, k0 + 1])):

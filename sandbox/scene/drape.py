@@ -38,6 +38,7 @@ SEW_GAP_M = 2e-3
 SEW_TIME_LIMIT_S = 1.5
 SEW_STIFFNESS_FACTOR = 0.05
 """Seam springs pull at this fraction of their final stiffness while sewing (no gravity)."""
+SEW_SELF_COLLISION = False
 SEW_RAMP_FRAMES = 6
 """Frames over which the seams stiffen geometrically to their final stiffness."""
 DRAPE_MIN_TIME_S = 0.5
@@ -101,6 +102,20 @@ def resolve_pattern(garment_or_path, mannequin=None):
     measurements = mannequin.measurements_requested if mannequin is not None else None
     data = draft(text, measurements, mannequin=mannequin)
     return load_pattern(data, where=f"garment {text!r}")
+
+
+def check_garment(garment) -> None:
+    """Raise SandboxError early (before Taichi starts) for a missing file or unknown name."""
+    path = Path(str(garment))
+    if path.suffix.lower() == ".json" or path.exists():
+        if not path.is_file():
+            raise SandboxError(f"{path}: no such pattern file")
+        return
+    names = garment_names()
+    if str(garment) not in names:
+        listed = ", ".join(names) if names else "none yet"
+        raise SandboxError(f"unknown garment {str(garment)!r}: give a pattern .json file or one "
+                           f"of the library's garments ({listed})")  # fmt: skip
 
 
 def make_mannequin(size: int | None = None, measurements: dict | None = None):
@@ -254,7 +269,8 @@ def ease_cm(x: np.ndarray, triangles: np.ndarray, mannequin, body=None) -> dict:
     section (all its pieces cut by the horizontal plane) is reduced to the pieces around
     the torso (cut lines whose centre lies within 75 % of the torso's half-width: sleeves
     are left out) and measured like the tape measure measures the body: the perimeter of
-    the convex hull. ``None`` where the garment does not reach that height.
+    the convex hull. ``None`` where the garment does not reach that height or its cut does
+    not go around the body axis.
     Returns ``{"ease_bust_cm", "ease_waist_cm", "ease_hip_cm", "garment_girth_*_cm",
     "body_girth_*_cm"}``.
     """
@@ -287,9 +303,12 @@ def ease_cm(x: np.ndarray, triangles: np.ndarray, mannequin, body=None) -> dict:
             continue
         p2 = np.vstack(pts)
         try:
-            girth = float(ConvexHull(p2).area)
+            hull = ConvexHull(p2)
         except QhullError:
             continue
+        if np.any(hull.equations[:, :2] @ axis + hull.equations[:, 2] > 0):
+            continue  # the cut does not go around the body
+        girth = float(hull.area)
         out[f"garment_girth_{key}_cm"] = 100.0 * girth
         out[f"ease_{key}_cm"] = 100.0 * (girth - body_girth)
     return out
@@ -308,6 +327,7 @@ def drape(
     out_dir,
     edge_length_m: float | None = 0.01,
     render: bool = True,
+    meshes: bool = True,
     progress: bool | None = None,
     mannequin=None,
     **build_options,
@@ -317,8 +337,8 @@ def drape(
     The mannequin is ``mannequin`` if given, else the database ``size`` (default 12)
     resized by ``measurements`` (cm). Writes into ``out_dir``: ``garment.obj`` /
     ``garment.ply`` (UVs = pattern coordinates [m]), ``body.obj``, ``render.png`` (front),
-    ``render_back.png`` and ``metrics.json``. Raises SandboxError on bad input and
-    SimulationDiverged (nothing written) if the run blows up.
+    ``render_back.png`` and ``metrics.json`` (``meshes=False``: no meshes). Raises
+    SandboxError on bad input and SimulationDiverged (nothing written) if the run blows up.
     """
     if mannequin is None:
         mannequin = make_mannequin(size, measurements)
@@ -329,18 +349,26 @@ def drape(
     build_s = time.perf_counter() - t0
     result = run_drape(scene, progress=progress)
     metrics = drape_metrics(scene, result, build_s=build_s)
-    paths = write_drape(scene, result, metrics, out_dir, render=render)
+    paths = write_drape(scene, result, metrics, out_dir, render=render, meshes=meshes)
     return DrapeResult(scene, result, metrics, paths)
 
 
-def sew(scene, *, gap_m: float = SEW_GAP_M, time_limit_s: float = SEW_TIME_LIMIT_S) -> dict:
+def sew(
+    scene,
+    *,
+    gap_m: float = SEW_GAP_M,
+    time_limit_s: float = SEW_TIME_LIMIT_S,
+    self_collision: bool = SEW_SELF_COLLISION,
+) -> dict:
     """Sewing phase: close the seams without gravity, then stiffen them and turn gravity on.
 
     The seam springs pull at :data:`SEW_STIFFNESS_FACTOR` of their final stiffness (as stiff
     as the cloth: the seams then hold the garment's weight) until every spring is shorter
     than ``gap_m`` or ``time_limit_s`` of simulated time has passed; then they stiffen over
-    :data:`SEW_RAMP_FRAMES` frames. Returns ``{"sew_sim_time_s", "sew_wall_time_s",
-    "sew_frames", "sew_gap_m"}``.
+    :data:`SEW_RAMP_FRAMES` frames. With ``self_collision=False`` the cloth does not collide
+    with itself while sewing (seam edges that start on the wrong side of another panel, like a
+    sleeve cap over the bodice, can then reach their partner). Returns ``{"sew_sim_time_s",
+    "sew_wall_time_s", "sew_frames", "sew_gap_m"}``.
     """
     from sandbox.scene.run import SimulationDiverged
 
@@ -354,6 +382,9 @@ def sew(scene, *, gap_m: float = SEW_GAP_M, time_limit_s: float = SEW_TIME_LIMIT
     t0 = time.perf_counter()
     solver.reset_watch()
     control.gravity[None] = [0.0, 0.0, 0.0]
+    saved = solver.self_collider
+    if not self_collision:
+        solver.self_collider = None  # the solver runs the fused step without its passes
     frame_s = scene.dt_s * scene.steps_per_frame
     frames = max(1, math.ceil(time_limit_s / frame_s))
     ramp = [SEW_STIFFNESS_FACTOR ** (1 - k / SEW_RAMP_FRAMES) for k in range(SEW_RAMP_FRAMES + 1)]
@@ -379,6 +410,7 @@ def sew(scene, *, gap_m: float = SEW_GAP_M, time_limit_s: float = SEW_TIME_LIMIT
     finally:
         model.seam_stiffness.from_numpy(k_final)
         control.gravity[None] = gravity
+        solver.self_collider = saved
     out.update(sew_sim_time_s=done * frame_s, sew_wall_time_s=time.perf_counter() - t0,
                sew_frames=done, sew_gap_m=gap)  # fmt: skip
     return out
@@ -431,8 +463,10 @@ def _measurements_dict(mannequin) -> dict | None:
     return {k: float(v) for k, v in asdict(meas).items()} if is_dataclass(meas) else None
 
 
-def write_drape(scene, result, metrics: dict, out_dir, *, render: bool = True) -> dict:
-    """Write the garment and body meshes, front/back renders and metrics.json."""
+def write_drape(scene, result, metrics: dict, out_dir, *, render: bool = True,
+                meshes: bool = True) -> dict:  # fmt: skip
+    """Write the garment and body meshes (unless ``meshes=False``), front/back renders and
+    metrics.json."""
     from sandbox.atomic import write_json
     from sandbox.render.meshio import write_mesh
     from sandbox.scene.output import _jsonable
@@ -442,11 +476,11 @@ def write_drape(scene, result, metrics: dict, out_dir, *, render: bool = True) -
     model, mannequin = scene.model, scene.mannequin
     x = result.positions
     tris = model.tri_indices_np
-    paths = {
-        "garment_obj": write_mesh(out / "garment.obj", x, tris, uvs=model.rest_uv_np),
-        "garment_ply": write_mesh(out / "garment.ply", x, tris, uvs=model.rest_uv_np),
-        "body_obj": write_mesh(out / "body.obj", mannequin.vertices, mannequin.triangles),
-    }
+    paths = {}
+    if meshes:
+        paths["garment_obj"] = write_mesh(out / "garment.obj", x, tris, uvs=model.rest_uv_np)
+        paths["garment_ply"] = write_mesh(out / "garment.ply", x, tris, uvs=model.rest_uv_np)
+        paths["body_obj"] = write_mesh(out / "body.obj", mannequin.vertices, mannequin.triangles)
     if render:
         paths["render_front"] = render_drape(out / "render.png", x, tris, mannequin, "front")
         paths["render_back"] = render_drape(out / "render_back.png", x, tris, mannequin, "back")

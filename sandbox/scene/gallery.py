@@ -1,0 +1,206 @@
+"""The garment gallery (paper Fig. 7): drape every library garment, one contact sheet.
+
+``python -m sandbox gallery [--out docs/gallery] [--quick]`` drapes each garment of
+:func:`sandbox.drafting.garment_names` on one mannequin and writes into ``--out``:
+
+* ``gallery.png``: the front views in a grid, each with the garment's name;
+* ``gallery.md``: a Markdown table (garment, vertices, wall time, converged, seam gap,
+  vertices inside the body, intersecting triangle pairs, ease at bust/waist/hip);
+* ``gallery.json``: the same rows as JSON;
+* ``<garment>/``: ``render.png``, ``render_back.png`` and ``metrics.json`` (and the meshes
+  with ``meshes=True``).
+
+A garment that fails (bad pattern, diverged run) gets a row saying why; the others go on.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+from sandbox.errors import SandboxError
+
+log = logging.getLogger(__name__)
+
+QUICK_EDGE_M = 0.03
+QUICK_FABRIC = "jersey"
+QUICK_TIME_LIMIT_S = 4.0
+TILE_PX = 320
+COLUMNS = 5
+
+
+def gallery(
+    out_dir="docs/gallery",
+    *,
+    quick: bool = False,
+    size: int = 12,
+    names: list[str] | None = None,
+    edge_length_m: float | None = None,
+    meshes: bool = False,
+    progress: bool = True,
+) -> list[Path]:
+    """Drape the library's garments and write the contact sheet and the table.
+
+    ``quick``: 3 cm meshes, every garment in jersey (soft: large explicit steps), 4 s limit.
+    Returns the written paths (sheet, table, JSON).
+    """
+    from sandbox.scene.drape import drape, garment_names, make_mannequin
+
+    library = garment_names()
+    if not library:
+        raise SandboxError("gallery: the garment library is empty (sandbox.drafting)")
+    chosen = list(names) if names else library
+    unknown = [n for n in chosen if n not in library]
+    if unknown:
+        raise SandboxError(f"gallery: unknown garment(s) {', '.join(unknown)}; the library has "
+                           f"{', '.join(library)}")  # fmt: skip
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    mannequin = make_mannequin(size)
+    edge = edge_length_m if edge_length_m is not None else (QUICK_EDGE_M if quick else 0.01)
+    options = {"fabric": QUICK_FABRIC, "time_limit_s": QUICK_TIME_LIMIT_S} if quick else {}
+    rows, tiles = [], []
+    for i, name in enumerate(chosen):
+        if progress:
+            print(f"[{i + 1}/{len(chosen)}] {name} ...", flush=True)
+        t0 = time.perf_counter()
+        try:
+            res = drape(name, mannequin=mannequin, out_dir=out / name, edge_length_m=edge,
+                        progress=False, meshes=meshes, **options)  # fmt: skip
+        except SandboxError as exc:  # includes SimulationDiverged
+            log.warning("%s: %s", name, exc)
+            rows.append({"garment": name, "error": str(exc),
+                         "wall_time_s": time.perf_counter() - t0})  # fmt: skip
+            tiles.append((name, None))
+            continue
+        m = res.metrics
+        rows.append(_row(name, m))
+        tiles.append((name, _front_tile(res)))
+        if progress:
+            r = rows[-1]
+            print(f"    {r['vertices']} vertices, {r['wall_time_s']:.0f} s, converged "
+                  f"{r['converged']}, seam gap {_mm(r['seam_gap_max_m'])} mm, inside "
+                  f"{r['vertices_inside_body']}, pairs {r['intersecting_triangle_pairs']}",
+                  flush=True)  # fmt: skip
+    fabrics = f", every garment in {QUICK_FABRIC}" if quick else ", each garment's fabric"
+    header = f"Size {size} mannequin, {'quick: ' if quick else ''}{edge * 100:g} cm mesh edges"
+    header += fabrics
+    return [
+        write_sheet(out / "gallery.png", tiles),
+        write_table(out / "gallery.md", rows, header),
+        _write_json(out / "gallery.json", rows, header),
+    ]
+
+
+def _row(name: str, m: dict) -> dict:
+    return {
+        "garment": name,
+        "fabric": m.get("fabric"),
+        "vertices": m["vertex_count"],
+        "wall_time_s": m.get("total_wall_time_s", m["wall_time_s"]),
+        "sim_time_s": m["sim_time_s"] + m.get("sew_sim_time_s", 0.0),
+        "converged": bool(m["converged"]),
+        "seam_gap_max_m": m.get("seam_gap_max_m"),
+        "vertices_inside_body": m.get("vertices_inside_body"),
+        "intersecting_triangle_pairs": m.get("intersecting_triangle_pairs"),
+        "ease_bust_cm": m.get("ease_bust_cm"),
+        "ease_waist_cm": m.get("ease_waist_cm"),
+        "ease_hip_cm": m.get("ease_hip_cm"),
+    }
+
+
+def _front_tile(res) -> np.ndarray:
+    import imageio.v3 as iio
+
+    path = res.paths.get("render_front")
+    if path is not None:
+        return np.asarray(iio.imread(path))[:, :, :3]
+    from sandbox.scene.drape import drape_image
+
+    return drape_image(res.run.positions, res.scene.model.tri_indices_np, res.scene.mannequin)
+
+
+def write_sheet(path, tiles: list[tuple[str, np.ndarray | None]], *, tile_px: int = TILE_PX):
+    """A grid of front views with the garment's name under each (PNG, atomic)."""
+    from PIL import Image, ImageDraw, ImageFont
+
+    from sandbox.atomic import atomic_path
+
+    cols = min(COLUMNS, max(1, len(tiles)))
+    rows = math.ceil(len(tiles) / cols)
+    label = 28
+    sheet = Image.new("RGB", (cols * tile_px, rows * (tile_px + label)), (255, 255, 255))
+    draw = ImageDraw.Draw(sheet)
+    try:
+        font = ImageFont.load_default(size=18)
+    except TypeError:  # old Pillow
+        font = ImageFont.load_default()
+    for k, (name, img) in enumerate(tiles):
+        x0, y0 = (k % cols) * tile_px, (k // cols) * (tile_px + label)
+        if img is not None:
+            tile = Image.fromarray(np.asarray(img, np.uint8)).resize((tile_px, tile_px))
+            sheet.paste(tile, (x0, y0))
+        else:
+            draw.text((x0 + 20, y0 + tile_px // 2), "failed", fill=(200, 0, 0), font=font)
+        w = draw.textlength(name, font=font)
+        draw.text((x0 + (tile_px - w) / 2, y0 + tile_px + 4), name, fill=(0, 0, 0), font=font)
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        sheet.save(tmp, format="PNG")
+    return path
+
+
+def _mm(v) -> str:
+    return "-" if v is None else f"{v * 1e3:.2f}"
+
+
+def _cm(v) -> str:
+    return "-" if v is None else f"{v:+.1f}"
+
+
+def write_table(path, rows: list[dict], header: str = "") -> Path:
+    """The gallery's Markdown table."""
+    from sandbox.atomic import write_text
+
+    lines = ["# Garment gallery", ""]
+    if header:
+        lines += [header + ". Reproduce: `python -m sandbox gallery`.", ""]
+    lines += ["![gallery](gallery.png)", ""]
+    lines += [
+        "| garment | fabric | vertices | wall time (s) | converged | seam gap max (mm) | "
+        "inside body | intersecting pairs | ease bust (cm) | ease waist (cm) | ease hip (cm) |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        if "error" in r:
+            lines.append(
+                f"| {r['garment']} | failed: {r['error'][:120]} |  |  |  |  |  |  |  |  |  |"
+            )
+            continue
+        lines.append(
+            f"| {r['garment']} | {r['fabric']} | {r['vertices']} | {r['wall_time_s']:.0f} | "
+            f"{'yes' if r['converged'] else 'no'} | {_mm(r['seam_gap_max_m'])} | "
+            f"{r['vertices_inside_body']} | {r['intersecting_triangle_pairs']} | "
+            f"{_cm(r['ease_bust_cm'])} | {_cm(r['ease_waist_cm'])} | {_cm(r['ease_hip_cm'])} |"
+        )
+    lines += [
+        "",
+        "Seam gap: the largest seam spring stretch. Inside body: garment vertices inside the "
+        "closed mannequin. Intersecting pairs: garment triangle pairs that cross (exact test). "
+        "Ease: garment girth minus body girth at the bust, waist and hip heights (convex hull "
+        "of the section, as the tape measure); '-' where the garment does not reach. See "
+        "docs/drape.md.",
+        "",
+    ]
+    return write_text(Path(path), "\n".join(lines))
+
+
+def _write_json(path, rows, header) -> Path:
+    from sandbox.atomic import write_json
+    from sandbox.scene.output import _jsonable
+
+    return write_json(Path(path), _jsonable({"settings": header, "garments": rows}))
