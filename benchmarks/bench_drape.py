@@ -1,0 +1,57 @@
+"""Wall time of one drape: ``python benchmarks/bench_drape.py [GARMENT ...] [--edge-cm 1]``.
+
+Default garments: the library's pencil skirt and T-shirt (or the test skirt if the library
+is missing). Each drape runs in a fresh output directory under ``out/bench_drape`` and
+prints one line of JSON: vertices, steps, dt, sewing and draping time (simulated, wall),
+compile time, convergence, seam gap, contact counts, ease.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+KEYS = ("vertex_count", "fabric", "dt_s", "steps", "sew_sim_time_s", "sew_wall_time_s",
+        "sim_time_s", "wall_time_s", "total_wall_time_s", "compile_time_s", "build_time_s",
+        "converged", "stop_reason", "seam_gap_max_m", "vertices_inside_body",
+        "intersecting_triangle_pairs", "ease_bust_cm", "ease_waist_cm", "ease_hip_cm")  # fmt: skip
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("garments", nargs="*")
+    p.add_argument("--edge-cm", type=float, default=1.0)
+    p.add_argument("--size", type=int, default=12)
+    p.add_argument("--fabric", default=None)
+    p.add_argument("--no-self-collision", action="store_true")
+    p.add_argument("--float64", action="store_true")
+    args = p.parse_args(argv)
+
+    from sandbox import runtime
+    from sandbox.scene.drape import drape, garment_names, make_mannequin
+
+    runtime.init("cpu", float64=args.float64)
+    garments = args.garments or (
+        ["pencil-skirt", "t-shirt"]
+        if garment_names()
+        else [str(ROOT / "tests" / "data" / "drape_skirt.json")]
+    )
+    mannequin = make_mannequin(args.size)
+    for g in garments:
+        t0 = time.perf_counter()
+        res = drape(g, mannequin=mannequin, out_dir=ROOT / "out" / "bench_drape" / Path(g).stem,
+                    edge_length_m=args.edge_cm / 100, fabric=args.fabric, progress=False,
+                    self_collision=not args.no_self_collision)  # fmt: skip
+        row = {"garment": g, "edge_cm": args.edge_cm, "size": args.size}
+        row.update({k: res.metrics.get(k) for k in KEYS})
+        row["command_wall_s"] = time.perf_counter() - t0
+        print(json.dumps(row), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,113 @@
+"""The drape pipeline (sandbox/scene/drape.py) and its CLI."""
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sandbox.cli import main
+from sandbox.mannequin import build_mannequin
+from sandbox.mannequin.tape import girth_at
+from sandbox.pattern.spec import load_pattern
+from sandbox.scene.drape import build_drape, drape, ease_cm
+
+DATA = Path(__file__).parent / "data"
+
+
+@pytest.fixture(scope="module")
+def mannequin():
+    return build_mannequin(size=12)
+
+
+@pytest.fixture(scope="module")
+def skirt_run(mannequin, tmp_path_factory):
+    """The 2-panel tube skirt, 3 cm mesh, jersey, draped to the stop rule."""
+    out = tmp_path_factory.mktemp("skirt")
+    res = drape(DATA / "drape_skirt.json", mannequin=mannequin, out_dir=out, edge_length_m=0.03,
+                progress=False, time_limit_s=4.0)  # fmt: skip
+    return res, out
+
+
+def test_skirt_drapes_closed_outside_and_with_ease(skirt_run):
+    res, _ = skirt_run
+    m = res.metrics
+    assert m["nan_positions"] == 0 and np.all(np.isfinite(res.run.positions))
+    assert m["seam_count"] > 0
+    assert m["seam_gap_max_m"] < 5e-3
+    assert m["vertices_inside_body"] == 0
+    assert m["penetration_max_m"] == 0.0
+    assert m["converged"], m["stop_reason"]
+    assert m["ease_hip_cm"] > 0
+    assert m["ease_waist_cm"] is not None
+    assert m["ease_bust_cm"] is None  # a skirt does not reach the bust
+    # the skirt hangs on the hips: it did not slide down the legs
+    x = res.run.positions
+    hip_y = res.scene.mannequin.landmarks["hip_front"][1]
+    assert x[:, 1].max() > hip_y + 0.1
+
+
+def test_drape_outputs(skirt_run):
+    res, out = skirt_run
+    for name in ("garment.obj", "garment.ply", "body.obj", "render.png", "render_back.png",
+                 "metrics.json"):  # fmt: skip
+        assert (out / name).is_file(), name
+    m = json.loads((out / "metrics.json").read_text())
+    for key in ("steps", "dt_s", "wall_time_s", "converged", "seam_gap_max_m",
+                "penetration_max_m", "vertices_inside_body", "intersecting_triangle_pairs",
+                "ease_bust_cm", "ease_waist_cm", "ease_hip_cm", "sew_sim_time_s"):  # fmt: skip
+        assert key in m, key
+    assert m["stop_max_displacement_m"] == 1.5e-3 and m["stop_mean_displacement_m"] == 1e-4
+    assert m["vertex_count"] == res.scene.model.particle_count
+    text = (out / "garment.obj").read_text()
+    assert text.count("\nvt ") == res.scene.model.particle_count
+
+
+def test_ease_of_a_cylinder(mannequin):
+    """A closed tube of radius R around the hip: ease = 2πR − body girth."""
+    y = float(mannequin.landmarks["hip_front"][1])
+    r, n = 0.25, 96
+    ang = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    cz = float(np.mean([mannequin.landmarks["hip_front"][2], mannequin.landmarks["hip_back"][2]]))
+    rows = [np.stack([r * np.sin(ang), np.full(n, yy), cz + r * np.cos(ang)], 1)
+            for yy in (y - 0.1, y + 0.1)]  # fmt: skip
+    x = np.vstack(rows)
+    i = np.arange(n)
+    j = (i + 1) % n
+    tris = np.concatenate([np.stack([i, j, i + n], 1), np.stack([j, j + n, i + n], 1)])
+    e = ease_cm(x, tris, mannequin)
+    polygon = 2 * n * r * math.sin(math.pi / n)
+    body = girth_at(mannequin.vertices, mannequin.triangles, y, axis_xz=(0.0, cz))
+    assert e["ease_hip_cm"] == pytest.approx(100 * (polygon - body), abs=0.3)
+    assert e["ease_bust_cm"] is None and e["ease_waist_cm"] is None
+
+
+def test_build_drape_top(mannequin):
+    pattern = load_pattern(DATA / "drape_top.json")
+    scene = build_drape(pattern, mannequin, edge_length_m=0.04, self_collision=False)
+    model = scene.model
+    assert [p.name for p in model.pieces] == ["front", "back"]
+    assert model.seam_count > 0
+    assert len(model.colliders) == 1 and model.colliders[0].closed
+    assert 0 < scene.dt_s <= 0.9 * scene.dt_limit_s + 1e-12
+    assert scene.spec.stop.max_displacement_m == 1.5e-3
+    # seams are as stiff as the cloth, so they hold the garment's weight
+    mat = model.pieces[0].material
+    assert np.allclose(model.seam_stiffness_np, max(mat.stretch_u_N_m, mat.stretch_v_N_m))
+
+
+def test_cli_list_and_errors(capsys, tmp_path):
+    assert main(["drape", "--list"]) == 0
+    names = capsys.readouterr().out.split()
+    try:
+        from sandbox.drafting import garment_names
+    except ImportError:
+        garment_names = list
+    assert names == list(garment_names())
+    assert main(["drape", "no-such-garment", "--out", str(tmp_path)]) == 2
+    assert "unknown garment" in capsys.readouterr().err
+    assert main(["drape", str(tmp_path / "missing.json"), "--out", str(tmp_path)]) == 2
+    assert "no such pattern file" in capsys.readouterr().err
+    assert main(["drape", str(DATA / "drape_skirt.json"), "--out", str(tmp_path),
+                 "--edge-cm", "0"]) == 2  # fmt: skip
