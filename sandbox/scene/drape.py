@@ -370,13 +370,14 @@ def sew(
     sleeve cap over the bodice, can then reach their partner). Returns ``{"sew_sim_time_s",
     "sew_wall_time_s", "sew_frames", "sew_gap_m"}``.
     """
+    from sandbox import runtime
     from sandbox.scene.run import SimulationDiverged
 
     model, solver, state, control = scene.model, scene.solver, scene.state, scene.control
     out = {"sew_sim_time_s": 0.0, "sew_wall_time_s": 0.0, "sew_frames": 0, "sew_gap_m": 0.0}
     if not model.seam_count:
         return out
-    k_final = model.seam_stiffness_np.astype(float)
+    k_final = model.seam_stiffness_np.astype(runtime.float_dtype())
     pairs, rest = model.seam_pairs_np, model.seam_rest_np
     gravity = control.gravity[None]
     t0 = time.perf_counter()
@@ -388,7 +389,7 @@ def sew(
     frame_s = scene.dt_s * scene.steps_per_frame
     frames = max(1, math.ceil(time_limit_s / frame_s))
     ramp = [SEW_STIFFNESS_FACTOR ** (1 - k / SEW_RAMP_FRAMES) for k in range(SEW_RAMP_FRAMES + 1)]
-    model.seam_stiffness.from_numpy(k_final * ramp[0])
+    model.seam_stiffness.from_numpy(k_final * k_final.dtype.type(ramp[0]))
     gap = math.inf
     done = 0
     try:
@@ -404,7 +405,7 @@ def sew(
             if gap < gap_m:
                 break
         for f in ramp[1:]:  # stiffen the closed seams, then let gravity act
-            model.seam_stiffness.from_numpy(k_final * f)
+            model.seam_stiffness.from_numpy(k_final * k_final.dtype.type(f))
             solver.advance(state, control, scene.dt_s, scene.steps_per_frame)
             done += 1
     finally:
