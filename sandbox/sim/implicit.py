@@ -25,7 +25,7 @@ an absolute velocity tolerance (default 1e-4 m/s: 1.7 µm at h = 1/60 s) plus, o
 (``rel_tol``, default 0), a fraction of the largest motion in the step. Loose tolerances
 fake damping: Newton stopped early leaves every step short of its solution in the same
 (slow) direction, so a creeping cloth lags. Measured on the cantilever (docs/implicit.md):
-1e-3 m/s, or 1e-4 m/s + 1 % of the motion, took 4-16x more steps to settle than 1e-4 m/s.
+1e-3 m/s, or 1e-4 m/s + 1 % of the motion, took 11x and 4x more steps to settle.
 A step that reaches ``max_newton``
 iterations first is counted as unconverged in :meth:`stats` (never silently).
 
