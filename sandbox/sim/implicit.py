@@ -136,6 +136,7 @@ class ImplicitEulerSolver:
         self.cg_k = ti.field(ti.i32, shape=())
         self.bad_step = ti.field(ti.i32, shape=())
         self.bad_vertex = ti.field(ti.i32, shape=())
+        self.sc_x = self.sc_v = None  # state-precision copies for a self-collision pass
         self.reset_watch()
         self.reset_stats()
         self.last: dict = {}
@@ -622,8 +623,25 @@ class ImplicitEulerSolver:
         self._velocities()
         sc = getattr(self.model, "self_collider", None)
         if sc is not None:  # the cloth's self-collision pass, when the scene has one
-            sc.resolve(self.x0, self.vel, float(self.h[None]))
+            if self.sc_x is None:  # it works on state-precision fields
+                n = max(1, self.model.particle_count)
+                self.sc_x = ti.Vector.field(3, float, shape=n)
+                self.sc_v = ti.Vector.field(3, float, shape=n)
+            self._to_state_precision(self.sc_x, self.sc_v)
+            sc.resolve(self.sc_x, self.sc_v, float(self.h[None]))
+            self._from_state_precision(self.sc_v)
         self._drift(x_out, v_out, index)
+
+    @ti.kernel
+    def _to_state_precision(self, x: ti.template(), v: ti.template()):
+        for i in range(self.model.particle_count):
+            x[i] = ti.cast(self.x0[i], float)
+            v[i] = ti.cast(self.vel[i], float)
+
+    @ti.kernel
+    def _from_state_precision(self, v: ti.template()):
+        for i in range(self.model.particle_count):
+            self.vel[i] = v[i]
 
     @ti.kernel
     def _velocities(self):
