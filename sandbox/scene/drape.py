@@ -220,9 +220,12 @@ def build_drape(
             meta={"mesher": "panel_mesh"},
         )
     seam_k = max(material.stretch_u_N_m, material.stretch_v_N_m)
+    names = list(meshes)
     for seam in pattern_seam_sides(pattern, meshes, index):
         if seam.get("stiffness_N_m") is None:
             seam["stiffness_N_m"] = seam_k
+        if seam.get("direction", "auto") == "auto":
+            seam["direction"] = seam_direction(seam, names, meshes, placed)
         builder.add_seam(**seam)
     model = builder.finalize(bending=True)
     spec = SceneSpec(
@@ -256,6 +259,38 @@ def build_drape(
     scene.mannequin = mannequin
     scene.placement_body = body
     return scene
+
+
+def seam_direction(seam: dict, names: list[str], meshes: dict, placed: dict,
+                   samples: int = 9) -> str:  # fmt: skip
+    """ "same" or "reverse" for an "auto" seam, from the placed panels.
+
+    The paper's rule (Fig. 5a) compares the distances between the two lines' end points. It
+    cannot decide a closed line (a sleeve cap sewn into an armhole: both ends of each line
+    meet at the underarm), so the lines are compared at ``samples`` points evenly spaced by
+    rest arc length (the ends included, so open seams get Fig. 5a's answer in all usual
+    cases): the direction with the smaller summed distance wins.
+    """
+
+    def line(side):
+        world, rest = [], []
+        for piece, idx in side:
+            idx = np.asarray(idx)
+            world.append(placed[names[piece]][idx])
+            rest.append(meshes[names[piece]].points[idx])
+        w, r = np.vstack(world), np.vstack(rest)
+        # rest arc length within each part, parts joined end to end
+        seg = np.linalg.norm(np.diff(r, axis=0), axis=1)
+        cuts = np.cumsum([len(p) for p in world])[:-1] - 1
+        seg[cuts] = 0.0  # no rest length between the end of one part and the next
+        s = np.concatenate([[0.0], np.cumsum(seg)])
+        t = np.linspace(0.0, s[-1], samples)
+        return np.stack([np.interp(t, s, w[:, k]) for k in range(3)], 1)
+
+    a, b = line(seam["side_a"]), line(seam["side_b"])
+    same = np.linalg.norm(a - b, axis=1).sum()
+    rev = np.linalg.norm(a - b[::-1], axis=1).sum()
+    return "same" if same <= rev else "reverse"
 
 
 # --------------------------------------------------------------------------------------
