@@ -42,6 +42,8 @@ def build_parser() -> argparse.ArgumentParser:
         "  python -m sandbox validate cantilever --json\n"
         "  python -m sandbox fabrics\n"
         "  python -m sandbox drape t-shirt --size 12 --out out/t-shirt\n"
+        "  python -m sandbox pattern a-line-skirt --bust 92 --out skirt.json\n"
+        "  python -m sandbox drape t-shirt --size 12 --out out/t-shirt\n"
         "Scene files are documented in docs/scene_format.md.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
@@ -80,13 +82,39 @@ def build_parser() -> argparse.ArgumentParser:
 
     _add_drape_parsers(sub)
 
-    try:
-        from sandbox.mannequin.cli import add_cli
-    except ImportError:
-        add_cli = None
-    if add_cli is not None:
-        add_cli(sub)
+    from sandbox.drafting.cli import add_cli as add_pattern_cli
+    from sandbox.mannequin.cli import add_cli as add_mannequin_cli
+
+    add_mannequin_cli(sub)
+    add_pattern_cli(sub)
+    p = sub.add_parser("check-pattern", add_help=False,
+                       help="validate and mesh pattern files; print panels and seams")  # fmt: skip
+    p.add_argument("argv", nargs=argparse.REMAINDER)
+    p = sub.add_parser("import-garmentcode", add_help=False,
+                       help="convert a GarmentCode pattern specification JSON")  # fmt: skip
+    p.add_argument("argv", nargs=argparse.REMAINDER)
     return parser
+
+
+FORWARDED = {
+    "check-pattern": "sandbox.pattern.panel_mesh",
+    "import-garmentcode": "sandbox.pattern.garmentcode",
+}
+"""Sub-commands that are a module's own ``main(argv)``; their options are theirs."""
+
+
+def _forward(module: str, command: str, argv: list[str]) -> int:
+    """Run a module's own ``main(argv)`` as a sub-command (its help under this name)."""
+    import importlib
+    import sys as _sys
+
+    mod = importlib.import_module(module)
+    old = _sys.argv[0]
+    _sys.argv[0] = f"python -m sandbox {command}"
+    try:
+        return int(mod.main(list(argv)) or 0)
+    finally:
+        _sys.argv[0] = old
 
 
 def _add_drape_parsers(sub) -> None:
@@ -234,12 +262,18 @@ def cmd_run(scene_path: Path, args) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    if args.command is None:
-        parser.print_help()
-        return 2
+    argv = sys.argv[1:] if argv is None else list(argv)
+    forwarded = bool(argv) and argv[0] in FORWARDED
+    args = parser = None
+    if not forwarded:
+        parser = build_parser()
+        args = parser.parse_args(argv)
+        if args.command is None:
+            parser.print_help()
+            return 2
     try:
+        if forwarded:
+            return _forward(FORWARDED[argv[0]], argv[0], argv[1:])
         if args.command == "run":
             return cmd_run(args.scene, args)
         if args.command == "demo":
