@@ -226,7 +226,8 @@ def build_drape(
             seam["stiffness_N_m"] = seam_k
         if seam.get("direction", "auto") == "auto":
             seam["direction"] = seam_direction(seam, names, meshes, placed)
-        builder.add_seam(**seam)
+        for part in split_seam(seam, names, meshes):
+            builder.add_seam(**part)
     model = builder.finalize(bending=True)
     spec = SceneSpec(
         name=pattern.name,
@@ -291,6 +292,59 @@ def seam_direction(seam: dict, names: list[str], meshes: dict, placed: dict,
     same = np.linalg.norm(a - b, axis=1).sum()
     rev = np.linalg.norm(a - b[::-1], axis=1).sum()
     return "same" if same <= rev else "reverse"
+
+
+def split_seam(seam: dict, names: list[str], meshes: dict) -> list[dict]:
+    """A seam whose sides join edges of several panels, as seams between single edges.
+
+    The builder parametrises a merged side by its pattern coordinates; edges of different
+    panels do not meet in the pattern plane, so the jump between them would take a share of
+    the parameter (an armhole made of the back and front armholes: the sleeve cap's middle
+    was sewn to the gap, with long rest lengths). Here both sides are parametrised by their
+    own arc length without the jumps, cut at every edge end of either side (at the nearest
+    vertex) and sewn piecewise with direction "same" (side b reversed first if needed).
+    """
+    a, b = list(seam["side_a"]), list(seam["side_b"])
+    if len(a) == 1 and len(b) == 1:
+        return [seam]
+    if seam["direction"] == "reverse":
+        b = [(piece, np.asarray(idx)[::-1]) for piece, idx in reversed(b)]
+
+    def params(side):
+        out, start = [], 0.0
+        for piece, idx in side:
+            pts = meshes[names[piece]].points[np.asarray(idx)]
+            cum = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+            out.append((piece, np.asarray(idx), start + cum))
+            start += cum[-1]
+        return [(piece, idx, t / max(start, 1e-12)) for piece, idx, t in out]
+
+    pa, pb = params(a), params(b)
+    cuts = sorted({0.0, 1.0} | {float(t[-1]) for _, _, t in pa[:-1] + pb[:-1]})
+    merged = [cuts[0]]
+    for c in cuts[1:]:
+        if c - merged[-1] > 1e-3:
+            merged.append(c)
+    merged[-1] = 1.0
+
+    def piece_of(side, t0, t1):
+        mid = 0.5 * (t0 + t1)
+        for piece, idx, t in side:
+            if t[0] - 1e-9 <= mid <= t[-1] + 1e-9:
+                i0 = int(np.argmin(np.abs(t - t0)))
+                i1 = int(np.argmin(np.abs(t - t1)))
+                if i1 <= i0:
+                    i0, i1 = (i0, i0 + 1) if i0 + 1 < len(idx) else (i0 - 1, i0)
+                return piece, idx[i0 : i1 + 1]
+        return None
+
+    out = []
+    for t0, t1 in zip(merged[:-1], merged[1:], strict=True):
+        sa, sb = piece_of(pa, t0, t1), piece_of(pb, t0, t1)
+        if sa is None or sb is None:
+            continue
+        out.append(dict(seam, side_a=[sa], side_b=[sb], direction="same"))
+    return out
 
 
 # --------------------------------------------------------------------------------------
