@@ -145,6 +145,8 @@ def _add_drape_parsers(sub) -> None:
     p.add_argument("--time-limit", type=float, default=None, metavar="S",
                    help="simulated time limit in s (default 8)")  # fmt: skip
     p.add_argument("--no-self-collision", action="store_true", help="cloth passes through itself")
+    p.add_argument("--sew-self-collision", action="store_true",
+                   help="self-collision while sewing too (fewer crossings, slower)")  # fmt: skip
     p.add_argument("--out", type=Path, default=None, help="output directory (created)")
     p.add_argument("--no-render", action="store_true", help="skip the PNGs")
     _add_runtime_flags(p)
@@ -185,7 +187,10 @@ def cmd_drape(args) -> int:
     if not args.edge_cm > 0:
         raise SandboxError(f"--edge-cm {args.edge_cm}: must be a positive length in cm")
     measurements = {k: getattr(args, k) for k in KEYS if getattr(args, k) is not None}
-    options = {"self_collision": not args.no_self_collision}
+    options = {
+        "self_collision": not args.no_self_collision,
+        "sew_self_collision": args.sew_self_collision and not args.no_self_collision,
+    }
     if args.time_limit is not None:
         if not args.time_limit > 0:
             raise SandboxError(f"--time-limit {args.time_limit}: must be positive")

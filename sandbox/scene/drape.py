@@ -419,6 +419,7 @@ def drape(
     meshes: bool = True,
     progress: bool | None = None,
     mannequin=None,
+    sew_self_collision: bool = SEW_SELF_COLLISION,
     **build_options,
 ) -> DrapeResult:
     """Drape a garment (library name, pattern file or dict) on a mannequin and write it.
@@ -436,7 +437,7 @@ def drape(
     scene = build_drape(pattern, mannequin, fabric=fabric, edge_length_m=edge_length_m,
                         **build_options)  # fmt: skip
     build_s = time.perf_counter() - t0
-    result = run_drape(scene, progress=progress)
+    result = run_drape(scene, progress=progress, sew_self_collision=sew_self_collision)
     metrics = drape_metrics(scene, result, build_s=build_s)
     paths = write_drape(scene, result, metrics, out_dir, render=render, meshes=meshes)
     return DrapeResult(scene, result, metrics, paths)
@@ -506,14 +507,15 @@ def sew(
     return out
 
 
-def run_drape(scene, *, progress: bool | None = None):
+def run_drape(scene, *, progress: bool | None = None,
+              sew_self_collision: bool = SEW_SELF_COLLISION):  # fmt: skip
     """Sew (:func:`sew`), then drape under gravity to the paper's stop rule (``run_scene``).
 
     The RunResult's metrics get the sewing phase's keys and ``total_wall_time_s``.
     """
     from sandbox.scene.run import run_scene
 
-    sewn = sew(scene)
+    sewn = sew(scene, self_collision=sew_self_collision)
     result = run_scene(scene, progress=progress)
     result.metrics.update(sewn)
     result.metrics["total_wall_time_s"] = result.metrics["wall_time_s"] + sewn["sew_wall_time_s"]
