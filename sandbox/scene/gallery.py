@@ -88,7 +88,8 @@ def gallery(
                   flush=True)  # fmt: skip
     fabrics = f", every garment in {QUICK_FABRIC}" if quick else ", each garment's fabric"
     header = f"Size {size} mannequin, {'quick: ' if quick else ''}{edge * 100:g} cm mesh edges"
-    header += fabrics
+    header += fabrics + ". Reproduce: `python -m sandbox gallery" + (" --quick" if quick else "")
+    header += (f" --size {size}" if size != 12 else "") + "`"
     return [
         write_sheet(out / "gallery.png", tiles),
         write_table(out / "gallery.md", rows, header),
@@ -168,7 +169,7 @@ def write_table(path, rows: list[dict], header: str = "") -> Path:
 
     lines = ["# Garment gallery", ""]
     if header:
-        lines += [header + ". Reproduce: `python -m sandbox gallery`.", ""]
+        lines += [header + ".", ""]
     lines += ["![gallery](gallery.png)", ""]
     lines += [
         "| garment | fabric | vertices | wall time (s) | converged | seam gap max (mm) | "
