@@ -51,11 +51,11 @@ from sandbox.errors import SandboxError
 CCD_PASSES = 8
 SWEEP_SAFETY = 1.25  # a fast step's pairs: reach grown by this times their relative motion
 MARGIN_STEPS = 8.0  # the margin covers this many steps of the fastest relative motion...
-MARGIN_EDGE_FRACTION = 0.5  # ...but stays below this part of the mean edge length
+MARGIN_EDGE_FRACTION = 0.3  # ...but stays below this part of the mean edge length
 CELL_SCALE = 1.5  # grid cell size over max(mean rest edge length, reach)
 SEPARATION_FRACTION = 0.25  # of the missing thickness, per step (proximity pass)
 CCD_GAP_FRACTION = 0.1  # of the thickness, left between a colliding pair (CCD pass)
-PAIRS_PER_VERTEX = 24  # pair list capacity per vertex + per edge
+PAIRS_PER_VERTEX = 32  # pair list capacity per vertex + per edge
 ZONE_ROUNDS = 100
 KIND_VT = 0
 KIND_EE = 1
