@@ -18,6 +18,8 @@ from sandbox.errors import SandboxError
 log = logging.getLogger("sandbox")
 
 DEFAULT_SCENE = "hanging_sheet.toml"
+DEFAULT_GARMENT = "sheath-dress"
+DEFAULT_EDGE_CM = 2.0
 
 
 def default_scene_path() -> Path:
@@ -59,10 +61,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-render", action="store_true", help="skip the PNG")
     _add_runtime_flags(p)
 
-    p = sub.add_parser("demo", help="run the built-in default scene (a hanging sheet)",
-                       description="Run the packaged default scene "
-                       f"(sandbox/scenes/{DEFAULT_SCENE}) and write its outputs.")  # fmt: skip
+    p = sub.add_parser("demo", help=f"drape the default garment ({DEFAULT_GARMENT}) on the "
+                       "default mannequin (size 12)",
+                       description=f"Drape {DEFAULT_GARMENT} (the garment library) on the size "
+                       f"12 mannequin with {DEFAULT_EDGE_CM:g} cm mesh edges, like `drape`, and "
+                       "write garment and body meshes, front and back renders and "
+                       "metrics.json. --scene runs the packaged hanging sheet "
+                       f"(sandbox/scenes/{DEFAULT_SCENE}) instead.")  # fmt: skip
     p.add_argument("--out", type=Path, default=Path("out/demo"), help="default: out/demo")
+    p.add_argument("--garment", default=DEFAULT_GARMENT, help=f"default: {DEFAULT_GARMENT}")
+    p.add_argument("--edge-cm", type=float, default=DEFAULT_EDGE_CM,
+                   help=f"mesh edge in cm (default {DEFAULT_EDGE_CM:g})")  # fmt: skip
+    p.add_argument("--scene", action="store_true", help="run the hanging-sheet scene instead")
     p.add_argument("--no-render", action="store_true", help="skip the PNG")
     _add_runtime_flags(p)
 
@@ -282,7 +292,15 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "run":
             return cmd_run(args.scene, args)
         if args.command == "demo":
-            return cmd_run(default_scene_path(), args)
+            if args.scene:
+                return cmd_run(default_scene_path(), args)
+            from sandbox.mannequin.measurements import KEYS
+
+            for k in KEYS:
+                setattr(args, k, None)
+            args.list, args.size, args.fabric, args.time_limit = False, 12, None, None
+            args.no_self_collision = args.sew_self_collision = False
+            return cmd_drape(args)
         if args.command == "validate":
             from sandbox.validate.cantilever import main as cantilever_main
 
