@@ -21,6 +21,7 @@ import math
 import numpy as np
 import taichi as ti
 
+from sandbox.collision.primitives import point_triangle_closest
 from sandbox.errors import SandboxError
 
 MAX_CELLS_PER_QUERY = 512
@@ -280,38 +281,6 @@ def segment_triangle(p0, p1, a, b, c):
 
 @ti.func
 def closest_point_on_triangle(p, a, b, c):
-    """Closest point to p on triangle abc (Ericson, Real-Time Collision Detection §5.1.5)."""
-    ab = b - a
-    ac = c - a
-    ap = p - a
-    d1 = ab.dot(ap)
-    d2 = ac.dot(ap)
-    result = a
-    if not (d1 <= 0.0 and d2 <= 0.0):
-        bp = p - b
-        d3 = ab.dot(bp)
-        d4 = ac.dot(bp)
-        if d3 >= 0.0 and d4 <= d3:
-            result = b
-        else:
-            vc = d1 * d4 - d3 * d2
-            if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
-                result = a + d1 / (d1 - d3) * ab
-            else:
-                cp = p - c
-                d5 = ab.dot(cp)
-                d6 = ac.dot(cp)
-                if d6 >= 0.0 and d5 <= d6:
-                    result = c
-                else:
-                    vb = d5 * d2 - d1 * d6
-                    if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
-                        result = a + d2 / (d2 - d6) * ac
-                    else:
-                        va = d3 * d6 - d5 * d4
-                        if va <= 0.0 and (d4 - d3) >= 0.0 and (d5 - d6) >= 0.0:
-                            result = b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b)
-                        else:
-                            denom = 1.0 / (va + vb + vc)
-                            result = a + ab * (vb * denom) + ac * (vc * denom)
-    return result
+    """Closest point to p on triangle abc (the weights from the shared primitive)."""
+    w = point_triangle_closest(p, a, b, c)
+    return w[0] * a + w[1] * b + w[2] * c

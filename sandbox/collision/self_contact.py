@@ -140,6 +140,9 @@ class SelfCollider:
         self.mean_shift = ti.Vector.field(3, float, shape=())  # this step's mean dt v
         self.drift_mean = ti.Vector.field(3, float, shape=())
         self.swept = ti.field(ti.i32, shape=())
+        self.sweep_scale = ti.field(float, shape=())  # 0: no swept pairs (after an overflow)
+        self.sweep_scale[None] = 1.0
+        self.overflow_steps = 0
         self.covered = ti.field(ti.i32, shape=())
         self.spread = ti.field(float, shape=())
         self.unresolved = ti.field(ti.i32, shape=())
@@ -260,8 +263,10 @@ class SelfCollider:
         self.margin[None] = ti.max(self.margin0, grown)
         reach = h + self.margin[None]
         # pairs that this very step's relative motion could bring together are kept too
-        self.swept[None] = 1 if 2.0 * self.max_step[None] > 0.4 * self.margin[None] else 0
-        query = reach + 2.0 * SWEEP_SAFETY * self.max_step[None]
+        sweep_k = SWEEP_SAFETY * self.sweep_scale[None]
+        fast = 2.0 * self.max_step[None] > 0.4 * self.margin[None]
+        self.swept[None] = 1 if fast and sweep_k > 0.0 else 0
+        query = reach + 2.0 * sweep_k * self.max_step[None]
         self.cell[None] = CELL_SCALE * ti.max(self.mean_edge, reach)
         self.half_edge[None] = 0.0
         for i in range(m.particle_count):
@@ -313,7 +318,7 @@ class SelfCollider:
                     if (self._cell_of(x[u]) == cid).all() and not self._excluded_vt(u, tv):
                         w = point_triangle_closest(x[u], a, b, c)
                         q = w[0] * a + w[1] * b + w[2] * c
-                        sweep = SWEEP_SAFETY * (self._motion(u, v, dt) + tri_move)
+                        sweep = sweep_k * (self._motion(u, v, dt) + tri_move)
                         y = x[u] + dt * v[u]
                         meet = (ti.min(x[u], y) <= t_hi).all() and (ti.max(x[u], y) >= t_lo).all()
                         if (x[u] - q).norm() < reach + sweep and meet:
@@ -348,7 +353,7 @@ class SelfCollider:
                             b_lo = ti.min(ti.min(q0, q1), ti.min(s0, s1))
                             b_hi = ti.max(ti.max(q0, q1), ti.max(s0, s1))
                             meet = (a_lo <= b_hi).all() and (b_lo <= a_hi).all()
-                            if d.norm() < reach + SWEEP_SAFETY * (move_a + move_b) and meet:
+                            if d.norm() < reach + sweep_k * (move_a + move_b) and meet:
                                 self._append(KIND_EE, ti.Vector([ea[0], ea[1], eb[0], eb[1]]))
         self.needs_build[None] = 0
         self.rebuilds[None] += 1
@@ -539,6 +544,15 @@ class SelfCollider:
     def resolve(self, state_x, state_v, dt: float) -> None:
         """Python driver for one step (used when steps are launched one by one)."""
         ok = self._respond_kernel(state_x, state_v, dt)
+        if self.overflow[None]:
+            # a violent step (e.g. a crumpling hem) swept more pairs than the list holds:
+            # redo it with the resting list only; CCD and the impact zones still run
+            self.overflow_steps += 1
+            self.overflow[None] = 0
+            self.needs_build[None] = 1
+            self.sweep_scale[None] = 0.0
+            ok = self._respond_kernel(state_x, state_v, dt)
+            self.sweep_scale[None] = 1.0
         self.check_capacity()
         tries = 0
         while not ok and self.needs_build[None] and tries < 2:
