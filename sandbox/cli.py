@@ -128,8 +128,7 @@ def _forward(module: str, command: str, argv: list[str]) -> int:
 
 
 def _add_drape_parsers(sub) -> None:
-    from sandbox.mannequin.cli import FLAGS
-    from sandbox.mannequin.measurements import KEYS, SUPPORTED_RANGE_CM
+    from sandbox.mannequin.cli import add_measurement_flags
 
     p = sub.add_parser(
         "drape",
@@ -143,13 +142,7 @@ def _add_drape_parsers(sub) -> None:
     p.add_argument("garment", nargs="?", help="a library garment name (see --list) or a "
                    "pattern file (.json, docs/pattern_format.md)")  # fmt: skip
     p.add_argument("--list", action="store_true", help="print the library's garments, one a line")
-    p.add_argument(
-        "--size", type=int, default=None, help="mannequin database size 6-26 (default 12)"
-    )
-    for key in KEYS:
-        lo, hi = SUPPORTED_RANGE_CM[key]
-        p.add_argument(FLAGS[key], dest=key, type=float, default=None, metavar="CM",
-                       help=f"{key.replace('_', ' ')} in cm ({lo:g}-{hi:g})")  # fmt: skip
+    add_measurement_flags(p)
     p.add_argument("--fabric", default=None, help="fabric preset (default: the garment's own)")
     p.add_argument("--edge-cm", type=float, default=1.0, help="mesh edge length in cm (default 1)")
     p.add_argument("--time-limit", type=float, default=None, metavar="S",

@@ -9,12 +9,11 @@ Standalone until wired into ``python -m sandbox``: ``python -m sandbox.drafting.
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 from sandbox.errors import SandboxError
-from sandbox.mannequin.cli import FLAGS
-from sandbox.mannequin.measurements import KEYS, SUPPORTED_RANGE_CM, size_entry, validate
+from sandbox.mannequin.cli import FLAGS, add_measurement_flags, standalone_main
+from sandbox.mannequin.measurements import KEYS, size_entry, validate
 
 
 def add_cli(subparsers) -> argparse.ArgumentParser:
@@ -28,17 +27,7 @@ def add_cli(subparsers) -> argparse.ArgumentParser:
     )
     p.add_argument("garment", nargs="?", help="garment name (see --list) or a garment .json")
     p.add_argument("--list", action="store_true", help="print the garment names and exit")
-    p.add_argument("--size", type=int, default=None, help="database size 6-26 (default 12)")
-    for key in KEYS:
-        lo, hi = SUPPORTED_RANGE_CM[key]
-        p.add_argument(
-            FLAGS[key],
-            dest=key,
-            type=float,
-            default=None,
-            metavar="CM",
-            help=f"{key.replace('_', ' ')} in cm (supported {lo:g}-{hi:g})",
-        )
+    add_measurement_flags(p)
     p.add_argument(
         "--mannequin",
         action="store_true",
@@ -86,18 +75,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m sandbox.drafting.cli")
-    sub = parser.add_subparsers(dest="command")
-    add_cli(sub)
-    argv = list(sys.argv[1:] if argv is None else argv)
-    if not argv or argv[0] != "pattern":
-        argv = ["pattern", *argv]
-    args = parser.parse_args(argv)
-    try:
-        return args.func(args)
-    except SandboxError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    return standalone_main(add_cli, "pattern", argv)
 
 
 if __name__ == "__main__":

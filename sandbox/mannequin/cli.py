@@ -37,7 +37,8 @@ def add_cli(subparsers) -> argparse.ArgumentParser:
     return p
 
 
-def _add_arguments(p: argparse.ArgumentParser) -> None:
+def add_measurement_flags(p: argparse.ArgumentParser) -> None:
+    """``--size`` and the seven measurement flags (cm); shared by every body command."""
     p.add_argument("--size", type=int, default=None, help="database size 6-26 (default 12)")
     for key in KEYS:
         lo, hi = SUPPORTED_RANGE_CM[key]
@@ -49,6 +50,26 @@ def _add_arguments(p: argparse.ArgumentParser) -> None:
             metavar="CM",
             help=f"{key.replace('_', ' ')} in cm (supported {lo:g}-{hi:g})",
         )
+
+
+def standalone_main(add_cli, command: str, argv: list[str] | None) -> int:
+    """Run one sub-command on its own (``python -m sandbox.<pkg>.cli ...``)."""
+    parser = argparse.ArgumentParser(prog="python -m sandbox")
+    sub = parser.add_subparsers(dest="command")
+    add_cli(sub)
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not argv or argv[0] != command:
+        argv = [command, *argv]
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except SandboxError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+
+
+def _add_arguments(p: argparse.ArgumentParser) -> None:
+    add_measurement_flags(p)
     p.add_argument(
         "--body",
         type=Path,
@@ -94,18 +115,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m sandbox.mannequin.cli")
-    sub = parser.add_subparsers(dest="command")
-    add_cli(sub)
-    argv = list(sys.argv[1:] if argv is None else argv)
-    if not argv or argv[0] != "mannequin":
-        argv = ["mannequin", *argv]
-    args = parser.parse_args(argv)
-    try:
-        return args.func(args)
-    except SandboxError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    return standalone_main(add_cli, "mannequin", argv)
 
 
 if __name__ == "__main__":
