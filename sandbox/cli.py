@@ -45,7 +45,9 @@ def build_parser() -> argparse.ArgumentParser:
         "  python -m sandbox fabrics\n"
         "  python -m sandbox drape t-shirt --size 12 --out out/t-shirt\n"
         "  python -m sandbox pattern a-line-skirt --bust 92 --out skirt.json\n"
-        "  python -m sandbox drape t-shirt --size 12 --out out/t-shirt\n"
+        "  python -m sandbox gui sheath-dress --size 12\n"
+        "  python -m sandbox render out/t-shirt --turntable\n"
+        "  python -m sandbox report --quick\n"
         "Scene files are documented in docs/scene_format.md.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
@@ -103,14 +105,26 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("import-garmentcode", add_help=False,
                        help="convert a GarmentCode pattern specification JSON")  # fmt: skip
     p.add_argument("argv", nargs=argparse.REMAINDER)
+    for command, text in FORWARDED_HELP.items():
+        p = sub.add_parser(command, add_help=False, help=text)
+        p.add_argument("argv", nargs=argparse.REMAINDER)
     return parser
 
 
 FORWARDED = {
     "check-pattern": "sandbox.pattern.panel_mesh",
     "import-garmentcode": "sandbox.pattern.garmentcode",
+    "gui": "sandbox.app.cli",
+    "render": "sandbox.render.studio",
+    "report": "sandbox.validate.report",
 }
 """Sub-commands that are a module's own ``main(argv)``; their options are theirs."""
+
+FORWARDED_HELP = {
+    "gui": "the interactive sandbox: mannequin sliders, click-to-sew, drag (or --offscreen)",
+    "render": "Open3D renders of saved results: front, back, turntable PNG and video",
+    "report": "error-against-run-time and stability reports (docs/error-vs-runtime.md)",
+}
 
 
 def _forward(module: str, command: str, argv: list[str]) -> int:
