@@ -101,3 +101,56 @@ def test_bad_seams_are_named(edit, needle):
     data = {**SEWN, "seam": [{"a": [edit], "b": [{"cloth": "right", "edge": 1}]}]}
     with pytest.raises(SandboxError, match=needle):
         scene_from_dict(data, source="sewn.toml")
+
+
+@pytest.mark.parametrize("integrator", ["symplectic_euler", "implicit_euler"])
+def test_seams_can_be_cleared_and_sewn_while_the_model_runs(integrator):
+    from sandbox.sim.seams import set_seam_springs
+
+    data = {**SEWN, "simulation": {**SEWN["simulation"], "integrator": integrator}}
+    sc = build_scene(scene_from_dict(data, source="sewn.toml"))
+    m = sc.model
+    pairs, rest, k = m.seam_pairs_np.copy(), m.seam_rest_np.copy(), m.seam_stiffness_np.copy()
+    gap0 = np.linalg.norm(np.diff(sc.state.positions()[pairs], axis=1), axis=2).max()
+    set_seam_springs(m, np.zeros((0, 2), int), [], [])  # clear: the same kernels, 0 springs
+    assert m.seam_count == 0 and m.seam_active[None] == 0
+    sc.solver.advance(sc.state, sc.control, sc.dt_s, 4 * sc.steps_per_frame)
+    x = sc.state.positions()
+    assert np.linalg.norm(np.diff(x[pairs], axis=1), axis=2).max() > 0.9 * gap0  # not pulled
+    set_seam_springs(m, pairs, rest, k)  # sew again, live
+    r = run_scene(sc, progress=False)
+    assert r.metrics["seam_gap_max_m"] < 3e-3
+    with pytest.raises(SandboxError, match="capacity"):
+        set_seam_springs(m, np.vstack([pairs, pairs[:1]]), np.r_[rest, 0], np.r_[k, 1])
+    with pytest.raises(SandboxError, match="itself"):
+        set_seam_springs(m, [[3, 3]], [0.0], [1.0])
+
+
+def test_a_model_with_room_for_seams_runs_with_none_sewn():
+    from sandbox.sim.builder import ModelBuilder
+    from sandbox.sim.seams import set_seam_springs
+    from sandbox.sim.solver import SymplecticEulerSolver
+
+    sc = build_scene(sheet_spec())
+    from sandbox.sim.materials import get_material
+
+    b = ModelBuilder()
+    m0 = sc.model
+    cotton = get_material("cotton")
+    b.add_cloth(name="a", pattern_uv=m0.rest_uv_np, triangles=m0.tri_indices_np,
+                material=cotton, positions=m0.initial_positions_np)  # fmt: skip
+    b.add_cloth(name="b", pattern_uv=m0.rest_uv_np, triangles=m0.tri_indices_np,
+                material=cotton, positions=m0.initial_positions_np + [0.0, 0.0, 0.05])  # fmt: skip
+    m = b.finalize(seam_capacity=8)
+    assert m.has_seams and m.seam_count == 0 and m.seam_capacity == 8
+    solver = SymplecticEulerSolver(m)
+    state, control = m.state(), m.control(gravity=(0, 0, 0))
+    solver.advance(state, control, 1e-4, 10)
+    assert np.allclose(state.positions(), m.initial_positions_np, atol=1e-9)  # no force
+    n = m0.particle_count
+    set_seam_springs(m, [[0, n]], [0.0], [50.0])  # pull vertex 0 of b onto vertex 0 of a
+    solver.advance(state, control, 1e-4, 10)
+    x = state.positions()
+    assert x[0, 2] > 0 and x[n, 2] < 0.05  # towards each other
+    moved = (x - m.initial_positions_np)[:, 2]
+    assert abs(moved @ m.mass_np) < 1e-15  # the seam's pull conserves momentum

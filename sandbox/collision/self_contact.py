@@ -88,25 +88,14 @@ class SelfCollider:
         self.margin0 = float(margin_m if margin_m is not None else 2.0 * thickness_m)
 
         # seam partners, CSR: the particles each particle is sewn to (and their mesh
-        # neighbours). Pairs of them are never candidates: the seam joins them.
-        near = [set() for _ in range(n)]
-        if model.seam_count:
-            ring = [set() for _ in range(n)]
-            for a, b in edges:
-                ring[a].add(b)
-                ring[b].add(a)
-            for a, b in model.seam_pairs_np:
-                near[a].update({b} | ring[b])
-                near[b].update({a} | ring[a])
-        partners = [sorted(s) for s in near]
-        start = np.zeros(n + 1, np.int64)
-        start[1:] = np.cumsum([len(p) for p in partners])
-        flat = np.array([q for p in partners for q in p], np.int64)
+        # neighbours). Pairs of them are never candidates: the seam joins them. Sized for
+        # the model's seam capacity, so seams sewn live fit (set_seam_partners).
+        self._ring = None
+        degree = np.bincount(edges.ravel(), minlength=n) if len(edges) else np.zeros(n, int)
+        room = 2 * model.seam_capacity * (int(degree.max(initial=0)) + 1)
         self.partner_start = ti.field(ti.i32, shape=n + 1)
-        self.partner_start.from_numpy(start.astype(np.int32))
-        self.partner = ti.field(ti.i32, shape=max(1, len(flat)))
-        if len(flat):
-            self.partner.from_numpy(flat.astype(np.int32))
+        self.partner = ti.field(ti.i32, shape=max(1, room))
+        self.set_seam_partners(model.seam_pairs_np)
 
         self.thickness = ti.field(float, shape=())
         self.mu = ti.field(float, shape=())
@@ -152,6 +141,38 @@ class SelfCollider:
         self.zone_steps = 0
         self.needs_build = ti.field(ti.i32, shape=())
         self.needs_build[None] = 1
+
+    def set_seam_partners(self, seam_pairs: np.ndarray | None) -> None:
+        """Exclude the pairs joined by ``seam_pairs`` (k, 2) and their mesh neighbours.
+
+        Called at construction and whenever the seams change (set_seam_springs); the
+        candidate list is rebuilt at the next step.
+        """
+        n = self.model.particle_count
+        near = [set() for _ in range(n)]
+        if seam_pairs is not None and len(seam_pairs):
+            if self._ring is None:
+                self._ring = [set() for _ in range(n)]
+                for a, b in self.edges_np:
+                    self._ring[a].add(b)
+                    self._ring[b].add(a)
+            ring = self._ring
+            for a, b in np.asarray(seam_pairs, np.int64):
+                near[a].update({b} | ring[b])
+                near[b].update({a} | ring[a])
+        partners = [sorted(s) for s in near]
+        start = np.zeros(n + 1, np.int64)
+        start[1:] = np.cumsum([len(p) for p in partners])
+        flat = np.array([q for p in partners for q in p], np.int64)
+        if len(flat) > self.partner.shape[0]:
+            raise SandboxError(f"self-collision: {len(flat)} seam exclusions exceed the room "
+                               f"for {self.partner.shape[0]}")  # fmt: skip
+        self.partner_start.from_numpy(start.astype(np.int32))
+        pad = np.zeros(self.partner.shape[0], np.int32)
+        pad[: len(flat)] = flat
+        self.partner.from_numpy(pad)
+        if hasattr(self, "needs_build"):
+            self.needs_build[None] = 1
 
     # ------------------------------------------------------------------ grid helpers
     @ti.func

@@ -479,7 +479,7 @@ def sew(
     frame_s = scene.dt_s * scene.steps_per_frame
     frames = max(1, math.ceil(time_limit_s / frame_s))
     ramp = [SEW_STIFFNESS_FACTOR ** (1 - k / SEW_RAMP_FRAMES) for k in range(SEW_RAMP_FRAMES + 1)]
-    model.seam_stiffness.from_numpy(k_final * k_final.dtype.type(ramp[0]))
+    model.set_seam_stiffness(k_final * ramp[0])
     gap = math.inf
     done = 0
     try:
@@ -495,11 +495,11 @@ def sew(
             if gap < gap_m:
                 break
         for f in ramp[1:]:  # stiffen the closed seams, then let gravity act
-            model.seam_stiffness.from_numpy(k_final * k_final.dtype.type(f))
+            model.set_seam_stiffness(k_final * f)
             solver.advance(state, control, scene.dt_s, scene.steps_per_frame)
             done += 1
     finally:
-        model.seam_stiffness.from_numpy(k_final)
+        model.set_seam_stiffness(k_final)
         control.gravity[None] = gravity
         solver.self_collider = saved
     out.update(sew_sim_time_s=done * frame_s, sew_wall_time_s=time.perf_counter() - t0,

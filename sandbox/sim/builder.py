@@ -119,8 +119,12 @@ class ModelBuilder:
         )
         return len(self._pieces) - 1
 
-    def finalize(self, *, bending: bool = True) -> Model:
-        """Allocate the Taichi Model. With ``bending=False`` no hinge is built."""
+    def finalize(self, *, bending: bool = True, seam_capacity: int = 0) -> Model:
+        """Allocate the Taichi Model. With ``bending=False`` no hinge is built.
+
+        ``seam_capacity`` reserves room for that many seam springs beyond the ones sewn here,
+        for scenes that sew while they run (:func:`sandbox.sim.seams.set_seam_springs`).
+        """
         if not self._pieces:
             raise SandboxError("the scene has no cloth piece")
         xs, vs, uvs, masses, pins, tri_all, rinv, areas, stiff = ([] for _ in range(9))
@@ -214,6 +218,7 @@ class ModelBuilder:
             seam_pairs=seam_pairs,
             seam_rest=seam_rest,
             seam_stiffness=seam_k,
+            seam_capacity=seam_capacity,
         )
 
     def _sew(self, world: np.ndarray, starts: list[int]):

@@ -114,8 +114,8 @@ class ImplicitEulerSolver:
             self.h_s = ti.field(REAL, shape=nh)
             self.h_z = ti.field(REAL, shape=nh)
         self.s_grad = self.s_hess = self.s_z = None
-        if model.seam_count:
-            ns = model.seam_count
+        if model.has_seams:
+            ns = model.seam_capacity
             self.s_grad, self.s_hess, self.s_z = vec(ns), mat(ns), vec(ns)
         # live scalars (0-D fields: no recompilation when they change)
         self.h = ti.field(REAL, shape=())
@@ -371,8 +371,8 @@ class ImplicitEulerSolver:
                 th = forces.dihedral_angle(x[j[0]], x[j[1]], x[j[2]], x[j[3]])
                 d = th - m.hinge_rest_angle[h]
                 acc[None] += ti.cast(0.5 * m.hinge_stiffness[h] * d * d, ti.f64)
-        if ti.static(m.seam_count > 0):
-            for q in range(m.seam_count):
+        if ti.static(m.has_seams):
+            for q in range(m.seam_active[None]):
                 s = (x[m.seam_pairs[q][0]] - x[m.seam_pairs[q][1]]).norm() - m.seam_rest[q]
                 acc[None] += ti.cast(0.5 * m.seam_stiffness[q] * s * s, ti.f64)
 
@@ -415,8 +415,8 @@ class ImplicitEulerSolver:
                 self.h_grad[4 * h + 1] = g1
                 self.h_grad[4 * h + 2] = g2
                 self.h_grad[4 * h + 3] = g3
-        if ti.static(m.seam_count > 0):
-            for q in range(m.seam_count):
+        if ti.static(m.has_seams):
+            for q in range(m.seam_active[None]):
                 d = x[m.seam_pairs[q][0]] - x[m.seam_pairs[q][1]]
                 r = m.seam_rest[q]
                 k = m.seam_stiffness[q]
@@ -448,7 +448,7 @@ class ImplicitEulerSolver:
                     gh = self.h_grad[slot]
                     g += self.h_s[slot // 4] * gh
                     d += hessians.hinge_hessian_block(self.h_k[slot // 4], gh, gh)
-            if ti.static(m.seam_count > 0):
+            if ti.static(m.has_seams):
                 for s in range(m.vert_seam_start[i], m.vert_seam_start[i + 1]):
                     slot = m.vert_seam_slot[s]
                     sign = 1.0 - 2.0 * (slot % 2)
@@ -505,8 +505,8 @@ class ImplicitEulerSolver:
                 for k in ti.static(range(4)):
                     s += self.h_grad[4 * h + k].dot(p[j[k]])
                 self.h_z[h] = self.h_k[h] * s
-        if ti.static(m.seam_count > 0):
-            for q in range(m.seam_count):
+        if ti.static(m.has_seams):
+            for q in range(m.seam_active[None]):
                 self.s_z[q] = self.s_hess[q] @ (p[m.seam_pairs[q][0]] - p[m.seam_pairs[q][1]])
         hh = self.h[None]
         c_mass = 1.0 / (hh * hh) + self.gamma[None] / hh
@@ -524,7 +524,7 @@ class ImplicitEulerSolver:
                     for s in range(m.vert_hinge_start[i], m.vert_hinge_start[i + 1]):
                         slot = m.vert_hinge_slot[s]
                         y += self.h_z[slot // 4] * self.h_grad[slot]
-                if ti.static(m.seam_count > 0):
+                if ti.static(m.has_seams):
                     for s in range(m.vert_seam_start[i], m.vert_seam_start[i + 1]):
                         slot = m.vert_seam_slot[s]
                         y += (1.0 - 2.0 * (slot % 2)) * self.s_z[slot // 2]

@@ -18,6 +18,7 @@ import numpy as np
 import taichi as ti
 
 from sandbox import runtime
+from sandbox.errors import SandboxError
 
 
 @dataclass
@@ -51,9 +52,11 @@ class Model:
       vert_tri_start/slot         CSR incidence: the corners 3t+c of the triangles at each
                                   particle, so forces are gathered without atomics
       vert_hinge_start/slot       the same for hinge slots 4h+k
-      seam_pairs          (s,)    ivec2 particles joined by a seam spring (§2.4), only if sewn
-      seam_rest           (s,)    rest length [m] (0 where the parameters match)
-      seam_stiffness      (s,)    spring stiffness [N/m]
+      seam_pairs          (S,)    ivec2 particles joined by a seam spring (§2.4), only if the
+                                  scene sews (S = seam_capacity >= the live count s)
+      seam_rest           (S,)    rest length [m] (0 where the parameters match)
+      seam_stiffness      (S,)    spring stiffness [N/m]
+      seam_active         ()      the live count s that kernels loop over (set_seams)
     Numpy copies of the inputs stay available as ``*_np`` attributes for writers and tests.
     """
 
@@ -76,6 +79,7 @@ class Model:
         seam_pairs: np.ndarray | None = None,
         seam_rest: np.ndarray | None = None,
         seam_stiffness: np.ndarray | None = None,
+        seam_capacity: int = 0,
     ):
         self.particle_count = int(len(positions))
         self.tri_count = int(len(tri_indices))
@@ -121,16 +125,26 @@ class Model:
         self.hinge_rest_angle = None
         self.hinge_stiffness = None
         self.seam_pairs = self.seam_rest = self.seam_stiffness = None
-        self.vert_seam_start = self.vert_seam_slot = None
-        if self.seam_count:  # only a scene that sews gets seam fields
-            k = self.seam_count
+        self.vert_seam_start = self.vert_seam_slot = self.seam_active = None
+        # Seam fields exist only in a scene that sews, or that may sew live (the app's
+        # click-to-sew): ``seam_capacity`` springs are allocated once, ``seam_active`` (0-D)
+        # holds the live count the kernels loop over, so sewing never recompiles.
+        self.seam_capacity = max(int(seam_capacity), self.seam_count)
+        self.has_seams = self.seam_capacity > 0
+        if self.has_seams:
+            k = self.seam_capacity
             self.seam_pairs = ti.Vector.field(2, ti.i32, shape=k)
             self.seam_rest = ti.field(float, shape=k)
             self.seam_stiffness = ti.field(float, shape=k)
-            self.seam_pairs.from_numpy(seam_pairs.astype(np.int32))
-            self.seam_rest.from_numpy(_f(seam_rest))
-            self.seam_stiffness.from_numpy(_f(seam_stiffness))
-            self.vert_seam_start, self.vert_seam_slot = _incidence(seam_pairs, n)
+            self.seam_active = ti.field(ti.i32, shape=())
+            self.vert_seam_start = ti.field(ti.i32, shape=n + 1)
+            self.vert_seam_slot = ti.field(ti.i32, shape=2 * k)
+            empty = np.zeros((0, 2), np.int64)
+            self.set_seams(
+                empty if seam_pairs is None else seam_pairs,
+                np.zeros(0) if seam_rest is None else seam_rest,
+                np.zeros(0) if seam_stiffness is None else seam_stiffness,
+            )
         if h:
             self.hinge_indices = ti.Vector.field(4, ti.i32, shape=h)
             self.hinge_rest_angle = ti.field(float, shape=h)
@@ -139,6 +153,48 @@ class Model:
             self.hinge_rest_angle.from_numpy(_f(hinge_rest_angle))
             self.hinge_stiffness.from_numpy(_f(hinge_stiffness))
             self.vert_hinge_start, self.vert_hinge_slot = _incidence(hinge_indices, n)
+
+    def set_seams(self, pairs: np.ndarray, rest: np.ndarray, stiffness: np.ndarray) -> None:
+        """Replace the seam springs (§2.4) with ``pairs`` (k, 2) particle indices, ``rest``
+        (k,) rest lengths [m] and ``stiffness`` (k,) [N/m]; k <= ``seam_capacity``.
+
+        Updates the numpy copies, the Taichi fields, the per-particle incidence lists and the
+        live count; kernels already compiled keep working. See
+        :func:`sandbox.sim.seams.set_seam_springs` for the checked public entry point.
+        """
+        pairs = np.asarray(pairs, np.int64).reshape(-1, 2)
+        k = len(pairs)
+        if k > self.seam_capacity:
+            raise SandboxError(f"{k} seam springs do not fit the model's capacity of "
+                               f"{self.seam_capacity}")  # fmt: skip
+        rest = np.asarray(rest, float).reshape(k)
+        stiffness = np.asarray(stiffness, float).reshape(k)
+        cap, n = self.seam_capacity, self.particle_count
+        pad_pairs = np.zeros((cap, 2), np.int32)
+        pad_pairs[:k] = pairs
+        pad_rest = np.zeros(cap)
+        pad_rest[:k] = rest
+        pad_k = np.zeros(cap)
+        pad_k[:k] = stiffness
+        self.seam_pairs.from_numpy(pad_pairs)
+        self.seam_rest.from_numpy(_f(pad_rest))
+        self.seam_stiffness.from_numpy(_f(pad_k))
+        start, slot = _incidence_arrays(pairs, n)
+        pad_slot = np.zeros(2 * cap, np.int32)
+        pad_slot[: len(slot)] = slot
+        self.vert_seam_start.from_numpy(start)
+        self.vert_seam_slot.from_numpy(pad_slot)
+        self.seam_active[None] = k
+        self.seam_count = k
+        self.seam_pairs_np = pairs if k else None
+        self.seam_rest_np = rest if k else None
+        self.seam_stiffness_np = stiffness if k else None
+
+    def set_seam_stiffness(self, stiffness: np.ndarray) -> None:
+        """New stiffnesses (k,) [N/m] for the live springs (the sewing phase's ramp)."""
+        pad = np.zeros(self.seam_capacity)
+        pad[: self.seam_count] = np.asarray(stiffness, float).reshape(self.seam_count)
+        self.seam_stiffness.from_numpy(_f(pad))
 
     def state(self) -> State:
         """A new State at the model's initial positions and velocities."""
@@ -159,18 +215,24 @@ def _f(a) -> np.ndarray:
     return np.asarray(a, dtype=runtime.float_dtype())
 
 
-def _incidence(elements: np.ndarray, n: int):
+def _incidence_arrays(elements: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
     """CSR lists of element slots per particle: for particle i the slots
     ``slot[start[i]:start[i+1]]`` are ``k·e + c`` for element e whose corner c is i."""
     flat = np.asarray(elements, dtype=np.int64).ravel()
     order = np.argsort(flat, kind="stable")
     counts = np.bincount(flat, minlength=n)
     start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int32)
+    return start, order.astype(np.int32)
+
+
+def _incidence(elements: np.ndarray, n: int):
+    """:func:`_incidence_arrays` as Taichi fields ``(start (n+1,), slot (max(1, k·e),))``."""
+    start, slot = _incidence_arrays(elements, n)
     start_f = ti.field(ti.i32, shape=n + 1)
-    slot_f = ti.field(ti.i32, shape=max(1, len(flat)))
+    slot_f = ti.field(ti.i32, shape=max(1, len(slot)))
     start_f.from_numpy(start)
-    if len(flat):
-        slot_f.from_numpy(order.astype(np.int32))
+    if len(slot):
+        slot_f.from_numpy(slot)
     return start_f, slot_f
 
 

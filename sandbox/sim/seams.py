@@ -133,3 +133,38 @@ def sew(a: SeamLine, b: SeamLine, world: np.ndarray, direction: str = "auto"):
     bb = b if same else b.reversed()
     pairs, rest = match_springs(a, bb)
     return pairs, rest, not same
+
+
+def set_seam_springs(model, pairs, rest, stiffness) -> None:
+    """Replace a running model's seam springs (click-to-sew, undo, clear).
+
+    Args:
+        model: a :class:`~sandbox.sim.model.Model` finalised with enough ``seam_capacity``.
+        pairs: (k, 2) int particle indices; rest: (k,) rest lengths [m];
+        stiffness: (k,) spring stiffnesses [N/m].
+    The solvers' kernels read the live count, so nothing recompiles; the self-collider (if
+    any) stops treating the newly sewn pairs as contacts. Raises SandboxError on indices
+    out of range, a pair sewn to itself, negative or non-finite values, or too many springs.
+    """
+    pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    rest = np.asarray(rest, dtype=float).reshape(-1)
+    stiffness = np.asarray(stiffness, dtype=float).reshape(-1)
+    k = len(pairs)
+    if len(rest) != k or len(stiffness) != k:
+        raise SandboxError(f"seam springs: {k} pairs but {len(rest)} rest lengths and "
+                           f"{len(stiffness)} stiffnesses")  # fmt: skip
+    if not model.has_seams or k > model.seam_capacity:
+        raise SandboxError(f"seam springs: {k} springs do not fit the model's capacity of "
+                           f"{model.seam_capacity} (finalize(seam_capacity=...))")  # fmt: skip
+    n = model.particle_count
+    if k and (pairs.min() < 0 or pairs.max() >= n):
+        raise SandboxError(f"seam springs: particle index out of range 0..{n - 1}")
+    if np.any(pairs[:, 0] == pairs[:, 1]):
+        raise SandboxError("seam springs: a particle is sewn to itself")
+    bad = ~np.isfinite(rest) | (rest < 0) | ~np.isfinite(stiffness) | (stiffness < 0)
+    if np.any(bad):
+        raise SandboxError(f"seam springs: spring {int(np.argmax(bad))} has a negative or "
+                           f"non-finite rest length or stiffness")  # fmt: skip
+    model.set_seams(pairs, rest, stiffness)
+    if model.self_collider is not None:
+        model.self_collider.set_seam_partners(model.seam_pairs_np)

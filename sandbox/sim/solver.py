@@ -43,8 +43,8 @@ class SymplecticEulerSolver:
         if model.hinge_count:
             self.hinge_force = ti.Vector.field(3, float, shape=4 * model.hinge_count)
         self.seam_force = None
-        if model.seam_count:
-            self.seam_force = ti.Vector.field(3, float, shape=2 * model.seam_count)
+        if model.has_seams:
+            self.seam_force = ti.Vector.field(3, float, shape=2 * model.seam_capacity)
         self.self_collider = model.self_collider
         self.bad_step = ti.field(ti.i32, shape=())
         self.bad_vertex = ti.field(ti.i32, shape=())
@@ -161,8 +161,8 @@ class SymplecticEulerSolver:
                 th = forces.dihedral_angle(x[j[0]], x[j[1]], x[j[2]], x[j[3]])
                 d = th - m.hinge_rest_angle[h]
                 self.energy[None] += ti.cast(0.5 * m.hinge_stiffness[h] * d * d, ti.f64)
-        if ti.static(m.seam_count > 0):
-            for q in range(m.seam_count):
+        if ti.static(m.has_seams):
+            for q in range(m.seam_active[None]):
                 e = (x[m.seam_pairs[q][0]] - x[m.seam_pairs[q][1]]).norm() - m.seam_rest[q]
                 self.energy[None] += ti.cast(0.5 * m.seam_stiffness[q] * e * e, ti.f64)
 
@@ -201,8 +201,8 @@ class SymplecticEulerSolver:
     def _seam_forces(self, x):
         m = self.model
         # §2.4: seam springs U = k/2 (|x_a − x_b| − r)^2, F_a = −k (|d| − r) d/|d|
-        if ti.static(m.seam_count > 0):
-            for q in range(m.seam_count):
+        if ti.static(m.has_seams):
+            for q in range(m.seam_active[None]):
                 a, b = m.seam_pairs[q][0], m.seam_pairs[q][1]
                 d = x[a] - x[b]
                 r = m.seam_rest[q]
@@ -224,7 +224,7 @@ class SymplecticEulerSolver:
         if ti.static(m.hinge_count > 0):
             for k in range(m.vert_hinge_start[i], m.vert_hinge_start[i + 1]):
                 f += self.hinge_force[m.vert_hinge_slot[k]]
-        if ti.static(m.seam_count > 0):
+        if ti.static(m.has_seams):
             for k in range(m.vert_seam_start[i], m.vert_seam_start[i + 1]):
                 f += self.seam_force[m.vert_seam_slot[k]]
         return f
