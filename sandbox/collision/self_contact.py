@@ -212,6 +212,15 @@ class SelfCollider:
         return shared or sewn
 
     @ti.func
+    def _edge_pair(self, ea, eb, p0, p1, q0, q1, move_a, reach, sweep_k, v, dt):
+        """Append edges ea, eb if their closest points are within the reach (plus sweep)."""
+        sa, sb = segment_segment_closest(p0, p1, q0, q1)
+        d = (p0 + sa * (p1 - p0)) - (q0 + sb * (q1 - q0))
+        move_b = ti.max(self._motion(eb[0], v, dt), self._motion(eb[1], v, dt))
+        if d.norm() < reach + sweep_k * (move_a + move_b):
+            self._append(KIND_EE, ti.Vector([ea[0], ea[1], eb[0], eb[1]]))
+
+    @ti.func
     def _append(self, kind, idx):
         slot = ti.atomic_add(self.pair_count[None], 1)
         if slot < self.capacity:
@@ -312,19 +321,19 @@ class SelfCollider:
                 self.v_count[b] = 0
                 self.e_count[b] = 0
         for i in range(m.particle_count):
-            b = self._bucket(self._cell_of(x[i]))
-            self.v_entry[self.v_start[b] + ti.atomic_add(self.v_count[b], 1)] = i
+            bk = self._bucket(self._cell_of(x[i]))
+            self.v_entry[self.v_start[bk] + ti.atomic_add(self.v_count[bk], 1)] = i
         for e in range(self.edge_count):
-            mid = 0.5 * (x[self.edge[e][0]] + x[self.edge[e][1]])
-            b = self._bucket(self._cell_of(mid))
-            self.e_entry[self.e_start[b] + ti.atomic_add(self.e_count[b], 1)] = e
+            bk = self._bucket(self._cell_of(0.5 * (x[self.edge[e][0]] + x[self.edge[e][1]])))
+            self.e_entry[self.e_start[bk] + ti.atomic_add(self.e_count[bk], 1)] = e
         self.pair_count[None] = 0
         # vertex-triangle
         for t in range(m.tri_count):
             tv = m.tri_indices[t]
             a, b, c = x[tv[0]], x[tv[1]], x[tv[2]]
-            lo = self._cell_of(ti.min(a, b, c) - query)
-            hi = self._cell_of(ti.max(a, b, c) + query)
+            box_lo, box_hi = ti.min(a, b, c) - query, ti.max(a, b, c) + query
+            lo = self._cell_of(box_lo)
+            hi = self._cell_of(box_hi)
             tri_move = ti.max(self._motion(tv[0], v, dt), self._motion(tv[1], v, dt),
                               self._motion(tv[2], v, dt))  # fmt: skip
             # the triangle's swept box this step, grown by the reach
@@ -336,14 +345,19 @@ class SelfCollider:
                 bk = self._bucket(cid)
                 for s in range(self.v_start[bk], self.v_start[bk + 1]):
                     u = self.v_entry[s]
-                    if (self._cell_of(x[u]) == cid).all() and not self._excluded_vt(u, tv):
-                        w = point_triangle_closest(x[u], a, b, c)
-                        q = w[0] * a + w[1] * b + w[2] * c
-                        sweep = sweep_k * (self._motion(u, v, dt) + tri_move)
-                        y = x[u] + dt * v[u]
-                        meet = (ti.min(x[u], y) <= t_hi).all() and (ti.max(x[u], y) >= t_lo).all()
-                        if (x[u] - q).norm() < reach + sweep and meet:
-                            self._append(KIND_VT, ti.Vector([u, tv[0], tv[1], tv[2]]))
+                    p = x[u]
+                    # cheap tests first (Taichi does not short-circuit ``and``): the query
+                    # box, then the vertex's own cell (hash collisions), then the rest
+                    if (p >= box_lo).all() and (p <= box_hi).all():
+                        if (self._cell_of(p) == cid).all():
+                            y = p + dt * v[u]
+                            if (ti.min(p, y) <= t_hi).all() and (ti.max(p, y) >= t_lo).all():
+                                if not self._excluded_vt(u, tv):
+                                    w = point_triangle_closest(p, a, b, c)
+                                    q = w[0] * a + w[1] * b + w[2] * c
+                                    sweep = sweep_k * (self._motion(u, v, dt) + tri_move)
+                                    if (p - q).norm() < reach + sweep:
+                                        self._append(KIND_VT, ti.Vector([u, tv[0], tv[1], tv[2]]))
         # edge-edge
         grow = query + self.half_edge[None]
         for e in range(self.edge_count):
@@ -360,22 +374,23 @@ class SelfCollider:
                 cid = ti.Vector([i, j, k])
                 bk = self._bucket(cid)
                 for s in range(self.e_start[bk], self.e_start[bk + 1]):
+                    # nested: Taichi evaluates both sides of ``and``; cheap tests first
                     f = self.e_entry[s]
-                    if f > e:
-                        eb = self.edge[f]
-                        q0, q1 = x[eb[0]], x[eb[1]]
-                        near = (ti.min(q0, q1) <= box_hi).all() and (ti.max(q0, q1) >= box_lo).all()
-                        own = (self._cell_of(0.5 * (q0 + q1)) == cid).all()
-                        if near and own and not self._excluded_ee(ea, eb):
-                            sa, sb = segment_segment_closest(p0, p1, q0, q1)
-                            d = (p0 + sa * (p1 - p0)) - (q0 + sb * (q1 - q0))
-                            move_b = ti.max(self._motion(eb[0], v, dt), self._motion(eb[1], v, dt))
+                    eb = self.edge[f]
+                    q0, q1 = x[eb[0]], x[eb[1]]
+                    if (
+                        f > e
+                        and (ti.min(q0, q1) <= box_hi).all()
+                        and (ti.max(q0, q1) >= box_lo).all()
+                    ):
+                        if (self._cell_of(0.5 * (q0 + q1)) == cid).all():
                             s0, s1 = q0 + dt * v[eb[0]], q1 + dt * v[eb[1]]
                             b_lo = ti.min(ti.min(q0, q1), ti.min(s0, s1))
                             b_hi = ti.max(ti.max(q0, q1), ti.max(s0, s1))
-                            meet = (a_lo <= b_hi).all() and (b_lo <= a_hi).all()
-                            if d.norm() < reach + sweep_k * (move_a + move_b) and meet:
-                                self._append(KIND_EE, ti.Vector([ea[0], ea[1], eb[0], eb[1]]))
+                            if (a_lo <= b_hi).all() and (b_lo <= a_hi).all():
+                                if not self._excluded_ee(ea, eb):
+                                    self._edge_pair(ea, eb, p0, p1, q0, q1, move_a, reach,
+                                                    sweep_k, v, dt)  # fmt: skip
         self.needs_build[None] = 0
         self.rebuilds[None] += 1
 
