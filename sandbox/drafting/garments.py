@@ -10,6 +10,8 @@ from __future__ import annotations
 import copy
 import dataclasses
 import json
+import site
+import sys
 from pathlib import Path
 
 from sandbox.drafting.blocks import BLOCKS
@@ -17,8 +19,26 @@ from sandbox.drafting.body import body_dims
 from sandbox.errors import SandboxError
 from sandbox.mannequin.measurements import Measurements
 
-#: The garment definitions (data only), in the repository's ``garments/`` folder.
-GARMENT_DIR = Path(__file__).resolve().parents[2] / "garments"
+
+def _garment_dir() -> Path:
+    """The repository's ``garments/`` folder, or its installed copy.
+
+    A checkout (or an editable install) reads the repository's folder; a wheel installs
+    the same files under ``<prefix>/share/garment-sandbox/garments`` (pyproject's
+    data-files), which is used when the repository folder is not there.
+    """
+    repo = Path(__file__).resolve().parents[2] / "garments"
+    if repo.is_dir():
+        return repo
+    for prefix in (sys.prefix, sys.base_prefix, site.getuserbase()):
+        shared = Path(prefix) / "share" / "garment-sandbox" / "garments"
+        if shared.is_dir():
+            return shared
+    return repo
+
+
+#: The garment definitions (data only): the repository's ``garments/`` folder.
+GARMENT_DIR = _garment_dir()
 
 #: Fig. 7 order: 4 sleeved tops, 5 sleeveless tops, 2 dresses, 3 skirts.
 GARMENT_ORDER: tuple[str, ...] = (
