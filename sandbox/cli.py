@@ -162,8 +162,9 @@ def _add_drape_parsers(sub) -> None:
     p.add_argument("--time-limit", type=float, default=None, metavar="S",
                    help="simulated time limit in s (default 8)")  # fmt: skip
     p.add_argument("--no-self-collision", action="store_true", help="cloth passes through itself")
-    p.add_argument("--sew-self-collision", action="store_true",
-                   help="self-collision while sewing too (fewer crossings, slower)")  # fmt: skip
+    p.add_argument("--fast-sew", action="store_true",
+                   help="no self-collision while sewing: about 3x faster, but panels may "
+                   "pass through each other and keep those crossings")  # fmt: skip
     p.add_argument("--out", type=Path, default=None, help="output directory (created)")
     p.add_argument("--no-render", action="store_true", help="skip the PNGs")
     _add_runtime_flags(p)
@@ -206,7 +207,7 @@ def cmd_drape(args) -> int:
     measurements = {k: getattr(args, k) for k in KEYS if getattr(args, k) is not None}
     options = {
         "self_collision": not args.no_self_collision,
-        "sew_self_collision": args.sew_self_collision and not args.no_self_collision,
+        "sew_self_collision": not (args.fast_sew or args.no_self_collision),
     }
     if args.time_limit is not None:
         if not args.time_limit > 0:
@@ -306,7 +307,7 @@ def main(argv: list[str] | None = None) -> int:
             for k in KEYS:
                 setattr(args, k, None)
             args.list, args.size, args.fabric, args.time_limit = False, 12, None, None
-            args.no_self_collision = args.sew_self_collision = False
+            args.no_self_collision = args.fast_sew = False
             return cmd_drape(args)
         if args.command == "validate":
             from sandbox.validate.cantilever import main as cantilever_main

@@ -38,7 +38,11 @@ SEW_GAP_M = 2e-3
 SEW_TIME_LIMIT_S = 1.5
 SEW_STIFFNESS_FACTOR = 0.05
 """Seam springs pull at this fraction of their final stiffness while sewing (no gravity)."""
-SEW_SELF_COLLISION = False
+SEW_SELF_COLLISION = True
+"""Self-collision during the sewing phase too. Off, seams close faster and a panel that starts
+on the wrong side of another can pass through it, but the garment keeps those crossings
+(gallery at 3 cm: 44 intersecting pairs on the T-shirt and 110 on the A-line dress without
+it, 5 and 0 with it, for about 3 x the wall time)."""
 SEW_RAMP_FRAMES = 6
 """Frames over which the seams stiffen geometrically to their final stiffness."""
 DRAPE_MIN_TIME_S = 0.5
