@@ -52,6 +52,11 @@ OFFSET_DIRECTIONS = 48
 FIT_MARGIN = 1.08
 """Extra offset is computed for a panel 8 % wider than it is (the offset curve's arc within
 a sector grows a little slower than the circle estimate)."""
+MAX_OFFSET_SLOPE = 0.5
+"""Going down the axis (away from the head or the shoulder), the extra offset a row gets to
+fit its sector shrinks by at most this much per metre: a flared panel (a circle skirt's
+gore, whose hem centre hangs below its widest row) is placed as a cone instead of curling
+back under itself towards the legs."""
 PUSH_ITERATIONS = 8
 OVERLAP_MARGIN_M = 0.015
 """Limb panels (sleeve caps) above the underarm start at least this far outside the torso
@@ -479,7 +484,7 @@ def _wrap(body: PlacementBody, frame: BodyFrame, theta: float, s, h, clearance: 
         arr[~good] = np.interp(rows[~good], rows[good], arr[good])
     need_after = _dilate(need_after * FIT_MARGIN, 2)
     need_before = _dilate(need_before * FIT_MARGIN, 2)
-    curves, starts = [], []
+    curves, extras = [], np.zeros(nb)
     for j, hr in enumerate(rows):
         c = body.curve(frame, hr, clearance)
         extra = 0.0
@@ -493,7 +498,13 @@ def _wrap(body: PlacementBody, frame: BodyFrame, theta: float, s, h, clearance: 
             extra += short / max(min(before, after), 0.2)
             c = body.curve(frame, hr, clearance + extra)
         curves.append(c)
-        starts.append(c.arc_at_angle(theta))
+        extras[j] = extra
+    # below a wide row, no row falls back towards the body faster than MAX_OFFSET_SLOPE
+    drop = rows[None, :] - rows[:, None]  # [j, k]: how far row k is above row j
+    envelope = np.max(np.where(drop >= 0, extras[None, :] - MAX_OFFSET_SLOPE * drop, 0.0), axis=1)
+    for j in np.nonzero(envelope > extras + 1e-4)[0]:
+        curves[j] = body.curve(frame, rows[j], clearance + envelope[j])
+    starts = [c.arc_at_angle(theta) for c in curves]
     f = np.clip((h - lo) / step, 0, nb - 1)
     k0 = np.minimum(np.floor(f).astype(int), nb - 2)
     w = (f - k0)[:, None]
