@@ -18,6 +18,7 @@ from tqdm import tqdm
 
 from sandbox.errors import SandboxError
 from sandbox.scene.build import Scene
+from sandbox.sim.guard import GuardConfig, GuardStop, StepGuard
 from sandbox.sim.stop import DisplacementMonitor, StopRule
 
 log = logging.getLogger(__name__)
@@ -42,11 +43,17 @@ def run_scene(
     *,
     progress: bool | None = None,
     on_frame: Callable[[Scene, int], None] | None = None,
+    guard: GuardConfig | bool | None = None,
 ) -> RunResult:
     """Simulate until the stop rule holds or a time limit is reached.
 
+    Every frame runs through the guard (:mod:`sandbox.sim.guard`): an unstable frame (NaN,
+    energy growth, hugely stretched or turned-over triangles) is rolled back and re-run
+    with half the step. ``guard=False`` switches the rollback off (NaN is still caught);
+    a :class:`GuardConfig` sets its thresholds. The ``guard_*`` metrics say whether it fired.
+
     Raises SimulationDiverged (naming the step and the vertex) if a position becomes NaN
-    or infinite; nothing is written in that case.
+    or infinite and the guard cannot recover; nothing is written in that case.
     """
     spec, model, solver = scene.spec, scene.model, scene.solver
     stop = spec.stop
@@ -54,6 +61,14 @@ def run_scene(
     rule = StopRule(stop.max_displacement_m, stop.mean_displacement_m, stop.frames)
     monitor = DisplacementMonitor(model)
     solver.reset_watch()
+    if guard is None or guard is True:
+        guard = GuardConfig()
+    elif guard is False:
+        guard = GuardConfig(enabled=False)
+    watch = StepGuard(scene, guard)
+    dt_note = dt_warning(scene)
+    if dt_note:
+        log.warning("%s", dt_note)
 
     t0 = time.perf_counter()
     solver.advance(scene.state, scene.control, 0.0, 1)  # compiles; dt = 0 changes nothing
@@ -70,12 +85,11 @@ def run_scene(
     t_start = time.perf_counter()
     try:
         while frame < frames_total:
-            solver.advance(scene.state, scene.control, scene.dt_s, scene.steps_per_frame, steps)
-            steps += scene.steps_per_frame
+            try:
+                steps += watch.advance_frame(frame)
+            except GuardStop as exc:
+                raise SimulationDiverged(str(exc)) from exc
             frame += 1
-            bad = solver.first_bad()
-            if bad is not None:
-                raise SimulationDiverged(_diverged_message(scene, *bad))
             max_d, mean_d = monitor.measure(scene.state)
             bar.update(1)
             if on_frame is not None:
@@ -98,7 +112,7 @@ def run_scene(
         "dt_s": scene.dt_s,
         "dt_stability_estimate_s": scene.dt_limit_s,
         "frames": frame,
-        "sim_time_s": steps * scene.dt_s,
+        "sim_time_s": frame * frame_s,
         "wall_time_s": wall,
         "compile_time_s": compile_s,
         "converged": converged,
@@ -108,6 +122,10 @@ def run_scene(
         "stop_max_displacement_m": stop.max_displacement_m,
         "stop_mean_displacement_m": stop.mean_displacement_m,
         "vertex_steps_per_s": model.particle_count * steps / wall if wall > 0 else None,
+        "dt_above_stable_limit": bool(dt_note),
+        "dt_warning": dt_note,
+        "dt_policy": "guard-adaptive" if guard.enabled else "fixed",
+        **watch.metrics(),
     }
     x_final = scene.state.positions()
     if model.seam_count:
@@ -115,7 +133,7 @@ def run_scene(
         metrics["seam_gap_max_m"] = seam_gap_max(model, x_final)
     metrics.update(contact_metrics(model, x_final))
     log.info("%s: %s after %d steps (%.2f s simulated, %.2f s wall)", spec.name, reason,
-             steps, steps * scene.dt_s, wall)  # fmt: skip
+             steps, frame * frame_s, wall)  # fmt: skip
     return RunResult(converged, reason, metrics, scene.state.positions())
 
 
@@ -154,6 +172,25 @@ def seam_gap_max(model, x: np.ndarray) -> float:
     p = model.seam_pairs_np
     gap = np.linalg.norm(x[p[:, 0]] - x[p[:, 1]], axis=1) - model.seam_rest_np
     return float(max(0.0, gap.max()))
+
+
+def dt_warning(scene: Scene) -> str | None:
+    """A warning naming the stable limit if the explicit step is above it (else None).
+
+    Symplectic Euler is stable for dt·ω_max < 2; ``scene.dt_limit_s`` is the builder's
+    estimate of that limit (``sandbox.scene.build.stable_dt_estimate``). The implicit
+    integrator has no such limit.
+    """
+    if scene.spec.simulation.integrator != "symplectic_euler":
+        return None
+    if not scene.dt_s > scene.dt_limit_s:
+        return None
+    return (
+        f"{scene.spec.source}: dt_s = {scene.dt_s:.3g} s is above the stable limit of "
+        f"symplectic Euler for this cloth, about {scene.dt_limit_s:.3g} s "
+        f"(stable_dt_estimate); the guard will halve dt where the run becomes unstable "
+        f'(adaptive dt). Use dt_s = "auto" or integrator = "implicit_euler" to avoid it.'
+    )
 
 
 def _diverged_message(scene: Scene, step: int, vertex: int) -> str:
