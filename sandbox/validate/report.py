@@ -34,8 +34,25 @@ PRESETS = ["cotton", "denim", "silk", "jersey", "knit", "polyester", "sweater", 
            "swimwear", "blanket"]  # fmt: skip
 
 
-def plan(quick: bool) -> dict:
-    """What to run: (λ, h, dt) grids per case, stability rows and columns, caps [s]."""
+def plan(quick: bool, tiny: bool = False) -> dict:
+    """What to run: (λ, h, dt) grids per case, stability rows and columns, caps [s].
+
+    ``tiny`` is for the tests: one coarse run per case and integrator, no extreme cases.
+    """
+    if tiny:
+        one = {"symplectic_euler": [None], "implicit_euler": [None]}
+        return {
+            "cantilever": {"lambdas": [30.0], "edges": [0.01], "dts": one},
+            "strip": {"edges": [0.025], "dts": one},
+            "sheet": {"edges": [0.06], "ref_edge": 0.05, "ref_dt_factor": 1.0, "time_s": 0.3,
+                      "dts": one},
+            "incline": {"edges": [0.05], "dts": one},
+            "presets": {"names": ["jersey"], "time_s": 0.2},
+            "matrix": {"rows": [stability.ROWS[0]], "dts": [1e-3, 1.0 / 30.0], "time_s": 0.1,
+                       "wall": 2.0},
+            "extremes": None,
+            "wall": 10.0,
+        }  # fmt: skip
     if quick:
         return {
             "cantilever": {"lambdas": [1.0, 30.0], "edges": [0.005],
@@ -49,13 +66,14 @@ def plan(quick: bool) -> dict:
             "presets": {"names": ["denim"], "time_s": 2.0},
             "matrix": {"rows": [stability.ROWS[0], stability.ROWS[1], stability.ROWS[4]],
                        "dts": [1e-5, 1e-3, 1.0 / 30.0], "time_s": 0.2, "wall": 2.0},
-            "extremes": {"time_s": 0.4, "wall": 4.0},
+            "extremes": {"time_s": 0.4, "wall": 3.0, "ramp": False},
             "wall": 30.0,
         }  # fmt: skip
     implicit_dts = [None, 1.0 / 240.0]  # None: 1/60 s
     return {
         "cantilever": {"lambdas": [1.0, 8.0, 30.0, 100.0], "edges": [0.005, 0.0025],
-                       "dts": {"symplectic_euler": [None], "implicit_euler": implicit_dts}},
+                       "dts": {"symplectic_euler": [None], "implicit_euler": [None]},
+                       "more_dts_at": {30.0: {"implicit_euler": [1.0 / 240.0]}}},
         "strip": {"edges": [0.01, 0.005], "dts": {"symplectic_euler": [None],
                                                  "implicit_euler": implicit_dts}},
         "sheet": {"edges": [0.03, 0.02, 0.015], "ref_edge": 0.01, "ref_dt_factor": 0.25,
@@ -64,8 +82,8 @@ def plan(quick: bool) -> dict:
         "incline": {"edges": [0.02, 0.01], "dts": {"symplectic_euler": [None],
                                                   "implicit_euler": implicit_dts}},
         "presets": {"names": PRESETS, "time_s": 3.0},
-        "matrix": {"rows": stability.ROWS, "dts": stability.DTS, "time_s": 0.5, "wall": 15.0},
-        "extremes": {"time_s": 1.0, "wall": 60.0},
+        "matrix": {"rows": stability.ROWS, "dts": stability.DTS, "time_s": 0.5, "wall": 10.0},
+        "extremes": {"time_s": 1.0, "wall": 30.0, "ramp": True},
         "wall": 300.0,
     }  # fmt: skip
 
@@ -103,7 +121,8 @@ def error_runs(p: dict, log) -> tuple[list[CaseRun], dict]:
     for lam in c["lambdas"]:
         for h in c["edges"]:
             for integ in INTEGRATORS:
-                for dt in c["dts"][integ]:
+                more = c.get("more_dts_at", {}).get(lam, {}).get(integ, [])
+                for dt in c["dts"][integ] + more:
                     add(cases.cantilever_case(lam, h, integ, dt, wall))
     c = p["strip"]
     for h in c["edges"]:
@@ -197,6 +216,7 @@ def main(argv: list[str] | None = None) -> int:
                     help="run only one part (default: all)")  # fmt: skip
     ap.add_argument("--arch", default="cpu", choices=["cpu", "gpu"])
     ap.add_argument("--float64", action="store_true", help="simulate in double precision")
+    ap.add_argument("--tiny", action="store_true", help=argparse.SUPPRESS)  # for the tests
     args = ap.parse_args(argv)
     try:
         return _report(args)
@@ -214,8 +234,8 @@ def _report(args) -> int:
     except Exception:  # noqa: BLE001 (cosmetic only)
         pass
     out = Path(args.out)
-    p = plan(args.quick)
-    mode = "quick" if args.quick else "full"
+    p = plan(args.quick, args.tiny)
+    mode = "tiny" if args.tiny else "quick" if args.quick else "full"
     cmd = "python -m sandbox report" + (" --quick" if args.quick else "")
     if args.out != "docs":
         cmd += f" --out {args.out}"
@@ -258,8 +278,10 @@ def _report(args) -> int:
             on_cell=lambda c: log(stability.cell_row(c)),
         )
         e = p["extremes"]
-        ext = stability.extremes(INTEGRATORS, e["time_s"], e["wall"],
-                                 on_cell=lambda c: log(stability.cell_row(c)))  # fmt: skip
+        ext = []
+        if e is not None:
+            ext = stability.extremes(INTEGRATORS, e["time_s"], e["wall"], ramp=e["ramp"],
+                                     on_cell=lambda c: log(stability.cell_row(c)))  # fmt: skip
         data.update(matrix=[c.as_dict() for c in cells], extremes=[c.as_dict() for c in ext])
         write_text(out / "stability.md", stability_markdown(data, cells, ext, p))
     data["total_wall_s"] = time.perf_counter() - started
@@ -395,7 +417,7 @@ def stability_markdown(data, cells, ext, p) -> str:
             parts.append(s)
         lines.append(f"| {case} | {SHORT[integ]} | " + " | ".join(parts) + " |")
     lines += ["", "## All cells", "", CELL_HEAD, *[stability.cell_row(c) for c in cells], ""]
-    e = p["extremes"]
+    e = p["extremes"] or {"wall": 0.0}
     lines += [
         "## Extreme cases",
         "",

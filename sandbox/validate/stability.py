@@ -79,9 +79,13 @@ def _run(scene, case: str, wall_limit_s: float, on_frame=None) -> Cell:
     try:
         r = run_scene(scene, progress=False, on_frame=on_frame)
     except SimulationDiverged as exc:
-        return Cell(case, integ, scene.dt_s, "failed", None, True, -1, None,
-                    time.perf_counter() - t0, math.nan, scene.model.particle_count,
-                    scene.dt_limit_s, message=str(exc))  # fmt: skip
+        cause = exc.__cause__
+        rollbacks = getattr(cause, "rollbacks", -1)
+        return Cell(case, integ, scene.dt_s, "failed", None, True, rollbacks,
+                    getattr(cause, "dt_s", None), time.perf_counter() - t0, math.nan,
+                    scene.model.particle_count, scene.dt_limit_s, message=str(exc),
+                    extra={"failed_at_step": getattr(cause, "step", None),
+                           "failed_at_vertex": getattr(cause, "vertex", None)})  # fmt: skip
     m = r.metrics
     outcome = "stable"
     if m["stop_reason"] == "wall-clock limit":
@@ -103,6 +107,9 @@ def _run(scene, case: str, wall_limit_s: float, on_frame=None) -> Cell:
 
 
 def _set_dt(scene, dt: float) -> None:
+    """Run at ``dt`` (rounded to a whole number of steps per frame). Frames are 1/30 s, or
+    200 steps for tiny dt, so the guard and the wall cap look in often enough."""
+    scene.spec.simulation.frame_rate_hz = max(30.0, 1.0 / (200.0 * dt))
     frame = 1.0 / scene.spec.simulation.frame_rate_hz
     steps = max(1, math.ceil(frame / dt - 1e-9))
     scene.steps_per_frame = steps
@@ -245,9 +252,10 @@ def impact_case(integrator: str, time_s: float, wall: float) -> Cell:
     return c
 
 
-def resize_cases(integrator: str, time_s: float, wall: float, scales=(1.3, 0.7)) -> list[Cell]:
+def resize_cases(integrator: str, time_s: float, wall: float, scales=(1.3, 0.7),
+                 ramp_frames: int = 1) -> list[Cell]:  # fmt: skip
     """A sheet draped over a sphere (r = 8 cm); at t = time/2 the sphere is resized by the
-    scale in one frame (``BodyCollider.update``)."""
+    scale (``BodyCollider.update``) in one frame, or linearly over ``ramp_frames``."""
     data = _sheet(
         "resize",
         integrator,
@@ -266,10 +274,12 @@ def resize_cases(integrator: str, time_s: float, wall: float, scales=(1.3, 0.7))
         body.update(v0)
 
         def resize(sc, frame, s=s):
-            if frame == frames // 2:
-                body.update(v0 * s)
+            k = frame - frames // 2 + 1
+            if 1 <= k <= ramp_frames:
+                body.update(v0 * (1.0 + (s - 1.0) * k / ramp_frames))
 
-        c = _run(scene, f"collider resized x{s:g} in one frame", wall, on_frame=resize)
+        how = "in one frame" if ramp_frames == 1 else f"over {ramp_frames} frames"
+        c = _run(scene, f"collider resized x{s:g} {how}", wall, on_frame=resize)
         x = scene.state.positions()
         c.extra["min_distance_to_centre_over_radius"] = float(
             np.linalg.norm(x, axis=1).min() / (0.08 * s)
@@ -300,7 +310,8 @@ def seam_gap_case(integrator: str, time_s: float, wall: float) -> Cell:
     return c
 
 
-def extremes(integrators, time_s: float, wall: float, on_cell=None) -> list[Cell]:
+def extremes(integrators, time_s: float, wall: float, on_cell=None, ramp: bool = False
+             ) -> list[Cell]:  # fmt: skip
     cells = []
 
     def add(c):
@@ -316,6 +327,9 @@ def extremes(integrators, time_s: float, wall: float, on_cell=None) -> list[Cell
         add(impact_case(integ, min(time_s, 0.1), wall))
         for c in resize_cases(integ, time_s, wall):
             add(c)
+        if ramp:  # the same +30 % spread over 10 frames (1/3 s)
+            for c in resize_cases(integ, time_s, wall, scales=(1.3,), ramp_frames=10):
+                add(c)
         add(seam_gap_case(integ, max(time_s, 1.0), wall))
     return cells
 
