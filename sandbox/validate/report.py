@@ -47,7 +47,7 @@ def plan(quick: bool, tiny: bool = False) -> dict:
             "sheet": {"edges": [0.06], "ref_edge": 0.05, "ref_dt_factor": 1.0, "time_s": 0.3,
                       "dts": one},
             "incline": {"edges": [0.05], "dts": one},
-            "presets": {"names": ["jersey"], "time_s": 0.2},
+            "presets": {"names": [], "time_s": 0.2},
             "matrix": {"rows": [stability.ROWS[0]], "dts": [1e-3, 1.0 / 30.0], "time_s": 0.1,
                        "wall": 2.0},
             "extremes": None,
@@ -217,8 +217,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--arch", default="cpu", choices=["cpu", "gpu"])
     ap.add_argument("--float64", action="store_true", help="simulate in double precision")
     ap.add_argument("--tiny", action="store_true", help=argparse.SUPPRESS)  # for the tests
+    ap.add_argument(
+        "--render", metavar="JSON", help="only rewrite the Markdown and the plot from a report.json"
+    )
     args = ap.parse_args(argv)
     try:
+        if args.render:
+            return _render(args)
         return _report(args)
     except SandboxError as exc:
         print(f"error: {exc}", file=sys.stderr)
@@ -290,6 +295,48 @@ def _report(args) -> int:
     return 0
 
 
+def _render(args) -> int:
+    """Rewrite OUT/*.md and the plot from a report.json written by an earlier run."""
+    import json
+
+    path = Path(args.render)
+    if not path.is_file():
+        raise SandboxError(f"{path}: no such report JSON")
+    data = json.loads(path.read_text(encoding="utf-8"))
+    out = Path(args.out)
+    p = plan(data["mode"] == "quick", data["mode"] == "tiny")
+    data["command"] = "python -m sandbox report" + (" --quick" if data["mode"] == "quick" else "")
+    if "runs" in data:
+        runs = [CaseRun(**{k: (math.nan if v is None and k in ("error_pct", "wall_time_s")
+                               else v) for k, v in r.items()}) for r in data["runs"]]  # fmt: skip
+        from sandbox.validate.plot import loglog_png
+
+        pts = [(r.wall_time_s, r.error_pct, SHORT[r.integrator], r.case) for r in runs]
+        loglog_png(pts, out / "report" / "error_vs_runtime.png",
+                   title=f"Error against wall time ({data['mode']} report)",
+                   xlabel="wall time of the run [s]", ylabel="error [%]", hline=1.0)  # fmt: skip
+        presets = [{k: (math.inf if v is None else v) for k, v in r.items()}
+                   for r in data["presets"]]  # fmt: skip
+        write_text(out / "error-vs-runtime.md", error_markdown(
+            data, runs, data["speedup"], presets, data["sheet_reference"]))  # fmt: skip
+    if "matrix" in data:
+        cells = [_cell(c) for c in data["matrix"]]
+        ext = [_cell(c) for c in data.get("extremes", [])]
+        write_text(out / "stability.md", stability_markdown(data, cells, ext, p))
+    if path.resolve() != (out / "report" / "report.json").resolve():
+        write_json(out / "report" / "report.json", data)
+    print(f"rendered {out}")
+    return 0
+
+
+def _cell(d: dict) -> stability.Cell:
+    d = dict(d)
+    for k in ("wall_time_s", "sim_time_s", "dt_limit_s"):
+        if d.get(k) is None:
+            d[k] = math.nan
+    return stability.Cell(**d)
+
+
 def _plan_json(p: dict) -> dict:
     m = dict(p)
     m["matrix"] = {**p["matrix"], "rows": [f"{a} x{b:g}" for a, b in p["matrix"]["rows"]]}
@@ -352,10 +399,11 @@ def error_markdown(data, runs, speed, presets, ref) -> str:
         got = [k for k in INTEGRATORS if k in speed]
         lines += [
             "Not measured in this run: no run of "
-            + (", ".join(SHORT[k] for k in INTEGRATORS if k not in got) or "either integrator")
+            + (" or ".join(SHORT[k] for k in INTEGRATORS if k not in got) or "either integrator")
             + " reached 1 % of L at λ = 30 (the quick report uses the 5 mm mesh only, whose "
             "error is mesh-bound at about 2 %).",
         ]
+    lines += ["", *why_not_faster(runs)]
     lines += [
         "",
         "## Target: every preset at ×100 stiffness, implicit at 1/60 s, against a fine-step "
@@ -376,6 +424,44 @@ def error_markdown(data, runs, speed, presets, ref) -> str:
     lines.append(f"{len(ok)} of {len(presets)} presets meet the target (no NaN, no rollback, "
                  "sag and max strain within 1 %).")  # fmt: skip
     return "\n".join(lines) + "\n"
+
+
+def why_not_faster(runs: list[CaseRun]) -> list[str]:
+    """Explain the cantilever speed-up from the CG counts: matrix products against steps."""
+    out = ["Why it is not faster, from these runs (λ = 30, same mesh, same stop rule):", ""]
+    rows = ["| h [mm] | explicit steps | implicit steps × CG per step = matrix products | "
+            "products / explicit steps | h_implicit / dt_explicit | wall explicit / implicit |",
+            "|---|---|---|---|---|---|"]  # fmt: skip
+    by = {}
+    for r in runs:
+        if r.case == "cantilever" and r.params.get("lambda") == 30.0 and r.outcome != "failed":
+            by.setdefault(r.edge_length_m, {}).setdefault(r.integrator, []).append(r)
+    for h, d in sorted(by.items(), reverse=True):
+        if "symplectic_euler" not in d or "implicit_euler" not in d:
+            continue
+        e = d["symplectic_euler"][0]
+        i = min(d["implicit_euler"], key=lambda r: -r.dt_s)  # the 1/60 s run
+        if not i.cg_per_step:
+            continue
+        products = i.steps * i.cg_per_step
+        rows.append(f"| {h * 1e3:.1f} | {e.steps} | {i.steps} × {i.cg_per_step:.0f} = "
+                    f"{products:.0f} | {products / e.steps:.2f} | {i.dt_s / e.dt_s:.0f} | "
+                    f"{e.wall_time_s / i.wall_time_s:.2f} |")  # fmt: skip
+    out += rows
+    out += [
+        "",
+        "One CG iteration applies the system matrix once, which costs about what one "
+        "explicit step costs (the same loops over triangles, hinges and vertices). With the "
+        "block-Jacobi preconditioner, CG needs on the order of √κ iterations, and "
+        "κ ≈ (h·ω_max)² for M/h² + K, while the explicit step is dt ≈ 2/ω_max: so one "
+        "implicit step needs roughly as many matrix products as there are explicit steps in "
+        "it (the ratio in the table). The implicit solver then does the same work as the "
+        "explicit one, plus Newton's overhead; the large step buys nothing. A 10× gain needs "
+        "a preconditioner whose iteration count does not grow with h·ω_max (multigrid, or a "
+        "sparse Cholesky factorisation reused over Newton iterations and steps), not a "
+        "tighter or looser tolerance.",
+    ]
+    return out
 
 
 def stability_markdown(data, cells, ext, p) -> str:
