@@ -38,7 +38,10 @@ class BodyCollider:
         mesh bounds a solid, so cloth is always pushed to the outside of its faces (this
         also frees a vertex less than ``thickness`` inside; cloth must start outside);
         an open mesh (a plane, a single surface)
-        pushes each vertex back to the side it came from.
+        pushes each vertex back to the side it came from. face_pass: also keep the body's
+        vertices under the cloth's triangles (closed bodies; see :meth:`poke`), so a coarse
+        cloth does not let the body show through its faces. Off by default: on garments it
+        keeps the cloth jittering (docs/self_collision.md).
     """
 
     def __init__(
@@ -51,6 +54,7 @@ class BodyCollider:
         friction_kinetic: float = 0.3,
         name: str = "body",
         closed: bool = True,
+        face_pass: bool = False,
     ):
         v = np.asarray(vertices, dtype=np.float64)
         t = np.asarray(triangles, dtype=np.int64)
@@ -64,6 +68,8 @@ class BodyCollider:
             raise SandboxError(f"collider {name!r}: vertices contain NaN or infinity")
         self.name = name
         self.closed = closed
+        # body vertices against cloth triangles (BodyCollider.poke): opt-in, closed bodies
+        self.face_pass = bool(face_pass and closed)
         self.vertex_count = len(v)
         self.tri_count = len(t)
         self.triangles_np = t
@@ -94,6 +100,12 @@ class BodyCollider:
         self.entry_capacity = int(len(t) * 27 + 4096)
         self.cell_entries = ti.field(ti.i32, shape=self.entry_capacity)
         self.overflow = ti.field(ti.i32, shape=())
+        # body vertices, one grid entry each, with area-weighted outward normals: the
+        # face pass (body vertices against cloth triangles) of a closed body
+        self.vertex_normal = ti.Vector.field(3, float, shape=len(v))
+        self.v_cell_start = ti.field(ti.i32, shape=n_cells + 1)
+        self.v_cell_fill = ti.field(ti.i32, shape=n_cells)
+        self.v_entries = ti.field(ti.i32, shape=len(v))
         self.update(v)
 
     # ------------------------------------------------------------------ build
@@ -173,8 +185,85 @@ class BodyCollider:
                     self.cell_entries[slot] = t
                 else:
                     self.overflow[None] = 1
+        # vertex normals (area-weighted) and the vertex grid
+        for i in self.vertex_normal:
+            self.vertex_normal[i] = ti.Vector([0.0, 0.0, 0.0])
+        for t in self.tri:
+            a, b, c = (
+                self.body_x[self.tri[t][0]],
+                self.body_x[self.tri[t][1]],
+                self.body_x[self.tri[t][2]],
+            )
+            n = (b - a).cross(c - a)
+            for k in ti.static(range(3)):
+                ti.atomic_add(self.vertex_normal[self.tri[t][k]], n)
+        for i in self.vertex_normal:
+            self.vertex_normal[i] = self.vertex_normal[i] / ti.max(
+                self.vertex_normal[i].norm(), 1e-30
+            )
+        for c in self.v_cell_fill:
+            self.v_cell_fill[c] = 0
+        for i in self.body_x:
+            ti.atomic_add(self.v_cell_fill[self._cell_index(self._cell_of(self.body_x[i]))], 1)
+        ti.loop_config(serialize=True)
+        for c in range(self.v_cell_fill.shape[0]):
+            if c == 0:
+                self.v_cell_start[0] = 0
+            self.v_cell_start[c + 1] = self.v_cell_start[c] + self.v_cell_fill[c]
+            self.v_cell_fill[c] = 0
+        for i in self.body_x:
+            cid = self._cell_index(self._cell_of(self.body_x[i]))
+            self.v_entries[self.v_cell_start[cid] + ti.atomic_add(self.v_cell_fill[cid], 1)] = i
 
     # ------------------------------------------------------------------ response
+    @ti.func
+    def poke(self, a, b, c):
+        """The deepest body vertex poking through the cloth triangle (a, b, c) [m].
+
+        A coarse cloth triangle spans the body's curvature: its corners keep the thickness
+        h from the body (:meth:`respond`) while its middle sags into it (bust, shoulder
+        blades). For each body vertex p whose projection falls inside the triangle, with the
+        cloth normal n turned to the outside of the body (the side of p's vertex normal),
+        the depth is (p − a)·n + h: how far the triangle must move along n to keep p the
+        thickness h below it. Returns ``(depth, n, w)`` with w the barycentric weights of the
+        projection; depth <= 0 when nothing pokes. Only the vertices of a closed body, and
+        not deeper than a quarter of the triangle's longest edge (deeper means the cloth is
+        inside the body, which the vertex test handles).
+        """
+        h = self.thickness[None]
+        best = 0.0
+        best_n = ti.Vector([0.0, 0.0, 0.0])
+        best_w = ti.Vector([0.0, 0.0, 0.0])
+        nc = (b - a).cross(c - a)
+        area2 = nc.norm()
+        longest = ti.max((b - a).norm(), (c - b).norm(), (a - c).norm())
+        if area2 > 1e-12 * longest * longest and longest > 0.0:
+            nc = nc / area2
+            box_lo = ti.min(a, b, c) - h
+            box_hi = ti.max(a, b, c) + h
+            lo = self._cell_of(box_lo)
+            hi = self._cell_of(box_hi)
+            visited = 0
+            for i, j, k in ti.ndrange((lo[0], hi[0] + 1), (lo[1], hi[1] + 1), (lo[2], hi[2] + 1)):
+                visited += 1
+                if visited <= MAX_CELLS_PER_QUERY:
+                    cid = self._cell_index(ti.Vector([i, j, k]))
+                    for e in range(self.v_cell_start[cid], self.v_cell_start[cid + 1]):
+                        vid = self.v_entries[e]
+                        p = self.body_x[vid]
+                        if (p >= box_lo).all() and (p <= box_hi).all():
+                            n = nc
+                            if nc.dot(self.vertex_normal[vid]) < 0.0:
+                                n = -nc
+                            s = (p - a).dot(n)
+                            if s > -h and s < 0.25 * longest:
+                                w = _barycentric(p - s * n, a, b, c)
+                                if w.min() > 0.0 and s + h > best:
+                                    best = s + h
+                                    best_n = n
+                                    best_w = w
+        return best, best_n, best_w
+
     @ti.func
     def respond(self, x, v, dt):
         """Revised velocity v(t+dt) for a vertex at x(t) with predicted velocity v."""
@@ -254,6 +343,18 @@ class BodyCollider:
                     vt = vt * (1.0 - self.mu_k[None] * dvn / vt_len)
                 v_new = vt + (vn + dvn) * n
         return v_new
+
+
+@ti.func
+def _barycentric(p, a, b, c):
+    """Barycentric weights of p (in the plane of a, b, c) [1]."""
+    v0, v1, v2 = b - a, c - a, p - a
+    d00, d01, d11 = v0.dot(v0), v0.dot(v1), v1.dot(v1)
+    d20, d21 = v2.dot(v0), v2.dot(v1)
+    den = d00 * d11 - d01 * d01
+    wb = (d11 * d20 - d01 * d21) / den
+    wc = (d00 * d21 - d01 * d20) / den
+    return ti.Vector([1.0 - wb - wc, wb, wc])
 
 
 @ti.func

@@ -700,3 +700,52 @@ def contact_metrics(
         cloth_vertices, cloth_triangles, exclude_vertex_pairs=seam_pairs
     )
     return out
+
+
+def body_vertices_through_cloth(
+    cloth_vertices, cloth_triangles, body_vertices, body_triangles, *, reach_m: float = 0.01
+) -> int:
+    """Body vertices that show through the cloth: the cloth lies *under* them.
+
+    For each body vertex, a ray from it into the body (against its area-weighted vertex
+    normal) that meets a cloth triangle within ``reach_m`` [m] means the cloth passes
+    below the body surface there: a coarse triangle sagging through a convex part of the
+    body while its corners stay outside. Body vertices farther than ``reach_m`` from the
+    cloth's bounding box are not tested. Returns the count (should be 0). numpy, in chunks
+    (Möller–Trumbore against the triangles whose boxes the short ray meets).
+    """
+    import trimesh
+
+    cv, ct = _mesh_arrays(cloth_vertices, cloth_triangles, "cloth")
+    bv, bt = _mesh_arrays(body_vertices, body_triangles, "body")
+    if len(ct) == 0:
+        return 0
+    lo, hi = cv.min(axis=0) - reach_m, cv.max(axis=0) + reach_m
+    near = np.all((bv >= lo) & (bv <= hi), axis=1)
+    if not near.any():
+        return 0
+    normals = trimesh.Trimesh(bv, bt, process=False).vertex_normals[near]
+    origins = bv[near]
+    a, b, c = cv[ct[:, 0]], cv[ct[:, 1]], cv[ct[:, 2]]
+    t_lo, t_hi = np.minimum(np.minimum(a, b), c), np.maximum(np.maximum(a, b), c)
+    e1, e2 = b - a, c - a
+    count = 0
+    for k in range(len(origins)):
+        o, d = origins[k], -normals[k]
+        end = o + reach_m * d
+        r_lo, r_hi = np.minimum(o, end), np.maximum(o, end)
+        sel = np.nonzero(np.all((t_lo <= r_hi) & (t_hi >= r_lo), axis=1))[0]
+        if len(sel) == 0:
+            continue
+        p = np.cross(d, e2[sel])
+        det = np.einsum("ij,ij->i", e1[sel], p)
+        ok = np.abs(det) > 1e-18
+        inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+        s = o - a[sel]
+        u = np.einsum("ij,ij->i", s, p) * inv
+        q = np.cross(s, e1[sel])
+        v = (q @ d) * inv
+        t = np.einsum("ij,ij->i", e2[sel], q) * inv
+        hit = ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 0) & (t < reach_m)
+        count += bool(hit.any())
+    return count

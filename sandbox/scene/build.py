@@ -177,6 +177,7 @@ def build_collider(c, collision):
     return BodyCollider(
         v, f, thickness_m=collision.thickness_m, friction_static=collision.friction_static,
         friction_kinetic=collision.friction_kinetic, name=c.name, closed=closed,
+        face_pass=collision.body_faces,
     )  # fmt: skip
 
 

@@ -82,6 +82,7 @@ class CollisionSpec:
     friction_static: float = 0.4
     friction_kinetic: float = 0.3
     self_collision: bool | None = None  # None: on when the scene has a collider
+    body_faces: bool = False  # closed bodies' vertices kept under the cloth's triangles
 
 
 COLLIDER_KEYS = {
@@ -273,6 +274,7 @@ def _collision(r: _Reader, t: dict) -> CollisionSpec:
     c.friction_kinetic = r.number(t, w, "friction_kinetic", c.friction_kinetic, minimum=0.0)
     if "self_collision" in t:
         c.self_collision = r.boolean(t, w, "self_collision", False)
+    c.body_faces = r.boolean(t, w, "body_faces", False)
     if c.friction_kinetic > c.friction_static:
         raise SandboxError(f"{r.source}: {w}: friction_kinetic must not exceed friction_static")
     return c

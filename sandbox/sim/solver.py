@@ -46,6 +46,13 @@ class SymplecticEulerSolver:
         if model.has_seams:
             self.seam_force = ti.Vector.field(3, float, shape=2 * model.seam_capacity)
         self.self_collider = model.self_collider
+        # the face pass: closed bodies' vertices against cloth triangles (only with bodies)
+        self.face_bodies = [c for c in model.colliders if getattr(c, "face_pass", False)]
+        self.has_faces = bool(self.face_bodies) and model.tri_count > 0
+        self.face_dv = self.face_count = None
+        if self.has_faces:
+            self.face_dv = ti.Vector.field(3, float, shape=max(1, model.particle_count))
+            self.face_count = ti.field(ti.i32, shape=max(1, model.particle_count))
         self.bad_step = ti.field(ti.i32, shape=())
         self.bad_vertex = ti.field(ti.i32, shape=())
         self.energy = ti.field(ti.f64, shape=())
@@ -255,16 +262,64 @@ class SymplecticEulerSolver:
 
     @ti.func
     def _kick_drift(self, x_in, v_in, x_out, v_out, gravity, damping, dt, index):
-        """Both halves of Eq. 2 in one pass (no self-collision between them)."""
-        for i in range(self.model.particle_count):
-            v_new = self._velocity(i, x_in, v_in, gravity, damping, dt)
-            v_out[i] = v_new
-            self._position(i, x_in, x_out, v_new, dt, index)
+        """Both halves of Eq. 2 (no self-collision between them): one pass over the
+        particles, or three with the face pass of a closed body."""
+        if ti.static(self.has_faces):
+            self._kick(x_in, v_in, v_out, gravity, damping, dt)
+            for i in range(self.model.particle_count):
+                self._position(i, x_in, x_out, v_out[i], dt, index)
+        else:
+            for i in range(self.model.particle_count):
+                v_new = self._velocity(i, x_in, v_in, gravity, damping, dt)
+                v_out[i] = v_new
+                self._position(i, x_in, x_out, v_new, dt, index)
 
     @ti.func
     def _kick(self, x_in, v_in, v_out, gravity, damping, dt):
         for i in range(self.model.particle_count):
             v_out[i] = self._velocity(i, x_in, v_in, gravity, damping, dt)
+        if ti.static(self.has_faces):
+            self._face_pass(x_in, v_out, dt)
+
+    @ti.func
+    def _face_pass(self, x, v, dt):
+        """Closed bodies' vertices against the cloth's triangles (after the vertex tests).
+
+        Each triangle whose predicted position x + dt v lets a body vertex poke through
+        (:meth:`BodyCollider.poke`) gets a velocity change Δu at the poking point: depth/dt
+        along the normal, which moves the point back to the thickness, plus Coulomb
+        friction on its tangential velocity (as in ``respond``); corner k changes by
+        w_k / Σw² · Δu, so the point at the weights w changes by exactly Δu. A particle
+        shared by several such triangles takes their mean. Pinned particles do not move.
+        """
+        m = self.model
+        for i in range(m.particle_count):
+            self.face_dv[i] = ti.Vector([0.0, 0.0, 0.0])
+            self.face_count[i] = 0
+        if dt > 0.0:
+            for t in range(m.tri_count):
+                tv = m.tri_indices[t]
+                a = x[tv[0]] + dt * v[tv[0]]
+                b = x[tv[1]] + dt * v[tv[1]]
+                c = x[tv[2]] + dt * v[tv[2]]
+                for body in ti.static(self.face_bodies):
+                    depth, n, w = body.poke(a, b, c)
+                    if depth > 0.0:
+                        # the poking point's velocity change: normal, then Coulomb friction
+                        dvn = depth / dt
+                        u = w[0] * v[tv[0]] + w[1] * v[tv[1]] + w[2] * v[tv[2]]
+                        ut = u - u.dot(n) * n
+                        ut_len = ut.norm()
+                        dv = dvn * n - ut
+                        if ut_len > body.mu_s[None] * dvn:
+                            dv = dvn * n - body.mu_k[None] * dvn / ut_len * ut
+                        scale = 1.0 / w.dot(w)
+                        for k in ti.static(range(3)):
+                            ti.atomic_add(self.face_dv[tv[k]], scale * w[k] * dv)
+                            ti.atomic_add(self.face_count[tv[k]], 1)
+        for i in range(m.particle_count):
+            if self.face_count[i] > 0 and m.particle_inv_mass[i] > 0.0:
+                v[i] += self.face_dv[i] / self.face_count[i]
 
     @ti.func
     def _drift(self, x_in, v, x_out, dt, index):
