@@ -168,6 +168,8 @@ def build_drape(
     self_collision: bool = True,
     integrator: str = "symplectic_euler",
     dt_s: float | None = None,
+    sew_pattern: bool = True,
+    seam_capacity: int = 0,
 ):
     """Mesh, place and sew a pattern on the mannequin: a Scene for ``run_scene``.
 
@@ -183,6 +185,9 @@ def build_drape(
         self_collision: cloth-cloth contact (Bridson et al. 2002).
         integrator: "symplectic_euler" (Eq. 2) or "implicit_euler".
         dt_s: time step [s]; None = 0.9 × the stability estimate (1/60 s implicit).
+        sew_pattern: sew the pattern's seams (False: the panels start unsewn, for the
+            interactive sandbox's click-to-sew, :func:`seam_springs`).
+        seam_capacity: room for this many more seam springs, sewn while the scene runs.
     """
     from sandbox import runtime
     from sandbox.collision.body import BodyCollider
@@ -225,14 +230,11 @@ def build_drape(
         )
     seam_k = max(material.stretch_u_N_m, material.stretch_v_N_m)
     names = list(meshes)
-    for seam in pattern_seam_sides(pattern, meshes, index):
-        if seam.get("stiffness_N_m") is None:
-            seam["stiffness_N_m"] = seam_k
-        if seam.get("direction", "auto") == "auto":
-            seam["direction"] = seam_direction(seam, names, meshes, placed)
-        for part in split_seam(seam, names, meshes):
-            builder.add_seam(**part)
-    model = builder.finalize(bending=True)
+    if sew_pattern:
+        for seam in pattern_seam_sides(pattern, meshes, index):
+            for part in _seam_parts(seam, seam_k, names, meshes, placed):
+                builder.add_seam(**part)
+    model = builder.finalize(bending=True, seam_capacity=seam_capacity)
     spec = SceneSpec(
         name=pattern.name,
         description=f"drape of {pattern.name} on the mannequin",
@@ -263,7 +265,55 @@ def build_drape(
     scene.pattern = pattern
     scene.mannequin = mannequin
     scene.placement_body = body
+    scene.builder, scene.meshes, scene.piece_index, scene.placed = builder, meshes, index, placed
+    scene.seam_stiffness_N_m = seam_k
     return scene
+
+
+def _seam_parts(seam: dict, seam_k: float, names, meshes, placed) -> list[dict]:
+    """One pattern seam (``pattern_seam_sides`` form) as ``add_seam`` keyword sets."""
+    if seam.get("stiffness_N_m") is None:
+        seam["stiffness_N_m"] = seam_k
+    if seam.get("direction", "auto") == "auto":
+        seam["direction"] = seam_direction(seam, names, meshes, placed)
+    return split_seam(seam, names, meshes)
+
+
+def seam_springs(scene, seams: list, positions: np.ndarray | None = None):
+    """Seam springs of pattern seam records, for a scene built by :func:`build_drape`.
+
+    Args:
+        scene: the drape scene (its pattern, meshes and builder).
+        seams: :class:`~sandbox.pattern.spec.SeamSpec` records (panel names, edge indices).
+        positions: (n, 3) world positions [m] the direction rule looks at (default: the
+            current state), so a seam made live is sewn the way the panels now lie.
+    Returns ``(pairs (k, 2), rest (k,) [m], stiffness (k,) [N/m])``: the same springs the
+    builder makes for a pattern file (Fig. 5 direction rule, parametric matching).
+    """
+    import dataclasses
+
+    from sandbox.pattern.panel_mesh import pattern_seam_sides
+
+    if not seams:
+        return np.zeros((0, 2), np.int64), np.zeros(0), np.zeros(0)
+    x = scene.state.positions() if positions is None else np.asarray(positions, float)
+    names = list(scene.meshes)
+    placed = {}
+    for piece in scene.model.pieces:
+        placed[piece.name] = x[piece.particle_start : piece.particle_start + piece.particle_count]
+    tmp = dataclasses.replace(scene.pattern, seams=list(seams))
+    builder = scene.builder
+    saved = builder._seams
+    builder._seams = []
+    try:
+        for seam in pattern_seam_sides(tmp, scene.meshes, scene.piece_index):
+            for part in _seam_parts(seam, scene.seam_stiffness_N_m, names, scene.meshes, placed):
+                builder.add_seam(**part)
+        starts = [p.particle_start for p in scene.model.pieces]
+        pairs, rest, k = builder._sew(x, starts)
+    finally:
+        builder._seams = saved
+    return pairs, rest, k
 
 
 def seam_direction(seam: dict, names: list[str], meshes: dict, placed: dict,

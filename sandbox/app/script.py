@@ -1,0 +1,146 @@
+"""Off-screen sessions driven by a JSON script of actions (how the docs' pictures are made).
+
+A script is a JSON list; each item is one action object:
+
+==============================================  =============================================
+action                                          effect
+==============================================  =============================================
+``{"set": {"bust_girth": 96, ...}}``            resize the mannequin (cm, the 7 measurements)
+``{"size": 16}``                                the database size's measurements
+``{"sew": {"a": [["front", 1]], "b": [...]}}``  sew two sides (lists of [panel, edge index])
+``{"click": [u, v], "shift": false}``           a click at window coordinates ([0, 1]², y up)
+                                                in sewing mode, as in the window (``"side":
+                                                "b"`` as holding the B key)
+``{"click_edge": ["front", 1]}``                a click on the middle of that edge
+``{"sew_picked": true}``                        sew the sides built with shift-clicks
+``{"sew_pattern": true}``                       sew the pattern file's seams
+``{"undo": true}`` / ``{"clear": true}``        undo the last seam / clear all seams
+``{"gravity": true}``                            gravity on (off at the start: sewing table)
+``{"run_frames": 30}``                          simulate 30 frames of 1/30 s
+``{"fabric": "denim"}``                         another fabric preset
+``{"pin": 12}`` / ``{"unpin": 12}``             pin or unpin a cloth vertex
+``{"save_frame": "name.png"}``                  render a PNG into the output directory
+``{"save_meshes": true}``                       garment.obj and body.obj
+``{"save_pattern": "pattern.json"}``            the pattern with the seams sewn so far
+``{"record": true}``                            from now on every frame goes into the GIF
+==============================================  =============================================
+
+Recorded frames are written as ``session.gif`` (imageio) at the end; ``summary.json`` lists
+what each action did. Errors name the script, the action's index and the problem.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from sandbox.errors import SandboxError
+
+ACTIONS = ("set", "size", "gravity", "sew", "click", "click_edge", "sew_picked",
+           "sew_pattern", "undo", "clear", "run_frames", "fabric", "pin", "unpin",
+           "save_frame", "save_meshes", "save_pattern", "record")  # fmt: skip
+
+
+def load_script(path) -> list[dict]:
+    """Read and check a script file (a JSON list of one-key action objects)."""
+    p = Path(path)
+    try:
+        data = json.loads(p.read_text())
+    except FileNotFoundError:
+        raise SandboxError(f"{p}: no such script file") from None
+    except json.JSONDecodeError as exc:
+        raise SandboxError(f"{p}: not valid JSON ({exc})") from None
+    if not isinstance(data, list):
+        raise SandboxError(f"{p}: a script is a JSON list of actions")
+    for i, a in enumerate(data):
+        if not isinstance(a, dict) or not a:
+            raise SandboxError(f'{p}: action {i}: must be an object such as {{"run_frames": 10}}')
+        unknown = [k for k in a if k not in ACTIONS and k not in ("shift", "side")]
+        if unknown:
+            raise SandboxError(f"{p}: action {i}: unknown action {unknown[0]!r} (known: "
+                               f"{', '.join(ACTIONS)})")  # fmt: skip
+    return data
+
+
+def run_script(session, actions: list[dict], out_dir, *, size=(480, 480), source="<script>",
+               fps: int = 15) -> dict:  # fmt: skip
+    """Play ``actions`` on a Session off-screen, writing into ``out_dir``. Returns a summary."""
+    import imageio.v3 as iio
+
+    from sandbox.app.gui import Renderer, Sewing
+    from sandbox.atomic import atomic_path, write_json
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    r = Renderer(session, size, show_window=False)
+    sewing = Sewing(session, r)
+    frames, recording, log = [], False, []
+    for i, a in enumerate(actions):
+        where = f"{source}: action {i}"
+        try:
+            if "set" in a:
+                tape = session.set_measurements(**a["set"])
+                log.append({"set": a["set"], "tape_cm": tape})
+            elif "size" in a:
+                from sandbox.mannequin.measurements import KEYS, size_entry
+
+                m = size_entry(int(a["size"])).measurements
+                tape = session.set_measurements(**{k: getattr(m, k) for k in KEYS})
+                log.append({"size": a["size"], "tape_cm": tape})
+            elif "gravity" in a:
+                session.set_gravity(bool(a["gravity"]))
+                log.append({"gravity": bool(a["gravity"])})
+            elif "sew" in a:
+                ok = session.sew(a["sew"].get("a"), a["sew"].get("b"))
+                log.append({"sew": a["sew"], "ok": ok, "message": session.message})
+            elif "click" in a or "click_edge" in a:
+                cur = a.get("click") or r.screen_of(*a["click_edge"])
+                msg = sewing.click(cur, add=bool(a.get("shift", False)), side=a.get("side"))
+                log.append({"click": list(cur), "message": msg})
+            elif "sew_picked" in a:
+                log.append({"sew_picked": sewing.finish()})
+            elif "sew_pattern" in a:
+                log.append({"sew_pattern": session.sew_pattern_seams()})
+            elif "undo" in a:
+                log.append({"undo": session.undo_seam()})
+            elif "clear" in a:
+                session.clear_seams()
+                log.append({"clear": True})
+            elif "run_frames" in a:
+                for _ in range(int(a["run_frames"])):
+                    session.run_frames(1)
+                    if recording:
+                        frames.append(r.image())
+                st = session.stats
+                log.append({"run_frames": a["run_frames"], "sim_time_s": st.sim_time_s,
+                            "max_displacement_m": st.max_displacement_m,
+                            "converged": st.converged})  # fmt: skip
+            elif "fabric" in a:
+                session.set_fabric(a["fabric"])
+                r = Renderer(session, size, show_window=False)
+                sewing = Sewing(session, r)
+                log.append({"fabric": a["fabric"]})
+            elif "pin" in a or "unpin" in a:
+                session.pin(int(a.get("pin", a.get("unpin"))), "pin" in a)
+                log.append({"message": session.message})
+            elif "save_frame" in a:
+                log.append({"save_frame": str(r.save_png(out / a["save_frame"]))})
+            elif "save_meshes" in a:
+                log.append({k: str(v) for k, v in session.save_meshes(out).items()})
+            elif "save_pattern" in a:
+                log.append({"save_pattern": str(session.save_pattern(out / a["save_pattern"]))})
+            elif "record" in a:
+                recording = bool(a["record"])
+        except SandboxError as exc:
+            raise SandboxError(f"{where}: {exc}") from None
+        except (TypeError, ValueError, KeyError, AttributeError) as exc:
+            raise SandboxError(f"{where}: bad arguments {a!r} ({exc})") from None
+    summary = {"actions": log, "seams": [[list(map(list, s.side_a)), list(map(list, s.side_b))]
+                                         for s in session.seams],
+               "measurements_cm": session.mannequin.measure()}  # fmt: skip
+    if frames:
+        with atomic_path(out / "session.gif") as tmp:
+            iio.imwrite(tmp, frames, extension=".gif", duration=1000 // fps, loop=0)
+        summary["gif"] = str(out / "session.gif")
+    write_json(out / "summary.json", summary)
+    return summary

@@ -1,0 +1,157 @@
+"""The interactive sandbox off-screen (issue 6): session actions, picking, GGUI frames."""
+
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+from sandbox.errors import SandboxError
+
+
+def _vulkan_ok() -> bool:
+    try:
+        import taichi as ti
+
+        from sandbox import runtime
+
+        runtime.ensure_init()
+        w = ti.ui.Window("probe", (32, 32), show_window=False)
+        w.get_canvas().set_background_color((1, 1, 1))
+        w.get_image_buffer_as_numpy()
+        w.destroy()
+        return True
+    except Exception:  # noqa: BLE001 (any failure means: no GGUI here)
+        return False
+
+
+@pytest.fixture(scope="module")
+def session():
+    from sandbox.app.session import Session
+
+    return Session("sheath-dress", edge_cm=4.0)
+
+
+def test_sewing_two_edges_makes_a_seam_record_and_its_springs(session):
+    session.clear_seams()
+    assert session.model.seam_count == 0
+    assert session.sew([("front", 5)], [("back", 8)])
+    assert [(s.side_a, s.side_b) for s in session.seams] == [([("front", 5)], [("back", 8)])]
+    n = session.model.seam_count
+    assert n >= 2 and session.model.seam_active[None] == n
+    # the springs join the two edges' particles
+    pairs = session.model.seam_pairs_np
+    front = dict((k, idx) for p, k, idx in session.edges if p == "front")[5]
+    back = dict((k, idx) for p, k, idx in session.edges if p == "back")[8]
+    assert set(pairs[:, 0]) <= set(front) | set(back) and set(pairs[:, 1]) <= set(front) | set(back)
+    # refusals: the same edge again, an edge to itself; nothing changes
+    assert not session.sew([("front", 5)], [("back", 3)]) and "already sewn" in session.message
+    assert not session.sew([("back", 3)], [("back", 3)]) and "itself" in session.message
+    assert len(session.seams) == 1 and session.model.seam_count == n
+    with pytest.raises(SandboxError, match="no panel 'sleeve'"):
+        session.sew([("sleeve", 0)], [("back", 3)])
+    assert session.undo_seam() and session.model.seam_count == 0
+    assert not session.undo_seam()
+
+
+def test_the_bust_slider_resizes_the_body_and_the_collider(session):
+    before = session.mannequin.measure()["bust_girth"]
+    tape = session.set_measurements(bust_girth=before + 8.0)
+    assert tape["bust_girth"] == pytest.approx(before + 8.0, abs=0.5)
+    np.testing.assert_allclose(session.collider.body_x.to_numpy(), session.mannequin.vertices,
+                               atol=1e-5)  # fmt: skip
+    session.run_frames(2)
+    assert np.isfinite(session.positions()).all()
+    with pytest.raises(SandboxError, match="unknown measurement"):
+        session.set_measurements(neck=30)
+    session.set_measurements(bust_girth=before)
+
+
+def test_saved_pattern_holds_the_seams_sewn_here(session, tmp_path):
+    from sandbox.pattern.spec import load_pattern
+
+    session.clear_seams()
+    session.sew([("front", 8)], [("back", 5)])
+    path = session.save_pattern(tmp_path / "p.json")
+    loaded = load_pattern(path)
+    assert [(s.side_a, s.side_b) for s in loaded.seams] == [([("front", 8)], [("back", 5)])]
+    session.clear_seams()
+
+
+@pytest.mark.skipif(not _vulkan_ok(), reason="GGUI needs Vulkan (libvulkan1, mesa-vulkan-drivers)")
+def test_offscreen_script_renders_sews_by_clicks_and_resizes(tmp_path):
+    from sandbox.app.cli import main
+
+    script = [
+        {"record": True},
+        {"click_edge": ["front", 5]},
+        {"click_edge": ["back", 8]},
+        {"click": [0.02, 0.98]},
+        {"set": {"bust_girth": 100}},
+        {"run_frames": 3},
+        {"save_frame": "f.png"},
+    ]
+    (tmp_path / "s.json").write_text(json.dumps(script))
+    out = tmp_path / "out"
+    assert main(["sheath-dress", "--edge-cm", "4", "--offscreen", "--script",
+                 str(tmp_path / "s.json"), "--out", str(out), "--width", "200",
+                 "--height", "200"]) == 0  # fmt: skip
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["seams"] == [[[["front", 5]], [["back", 8]]]]
+    assert summary["actions"][1]["message"].startswith("sewn: front[5] to back[8]")
+    assert summary["actions"][2]["message"] == "no panel edge there"
+    assert summary["measurements_cm"]["bust_girth"] == pytest.approx(100.0, abs=0.5)
+    import imageio.v3 as iio
+
+    img = iio.imread(out / "f.png")
+    assert img.shape[:2] == (200, 200)
+    not_bg = np.abs(img[..., :3].astype(int) - 255).sum(-1) > 30
+    blue = (img[..., 2].astype(int) - img[..., 0] > 60) & not_bg  # the garment's colour
+    skin = (img[..., 0].astype(int) - img[..., 2] > 12) & (img[..., 0] > 90) & not_bg  # body
+    assert not_bg.mean() > 0.05 and blue.sum() > 200 and skin.sum() > 200
+    frames = iio.imread(out / "session.gif")
+    assert len(frames) == 3
+
+
+def test_bad_scripts_are_named(tmp_path):
+    from sandbox.app.cli import main
+    from sandbox.app.script import load_script
+
+    (tmp_path / "bad.json").write_text('[{"jump": 3}]')
+    with pytest.raises(SandboxError, match="bad.json: action 0: unknown action 'jump'"):
+        load_script(tmp_path / "bad.json")
+    (tmp_path / "broken.json").write_text("[{")
+    with pytest.raises(SandboxError, match="not valid JSON"):
+        load_script(tmp_path / "broken.json")
+    assert main(["--offscreen"]) == 2
+
+
+@pytest.mark.skipif(
+    shutil.which("Xvfb") is None or not _vulkan_ok(),
+    reason="needs Xvfb and Vulkan (CI installs xvfb, mesa-vulkan-drivers)",
+)
+def test_a_real_window_under_xvfb_opens_renders_and_reports(tmp_path):
+    import os
+    import subprocess
+    import sys
+    import time
+
+    display = ":97"
+    xvfb = subprocess.Popen(["Xvfb", display, "-screen", "0", "1024x768x24"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)  # fmt: skip
+    try:
+        time.sleep(1.0)
+        env = dict(os.environ, DISPLAY=display)
+        status = tmp_path / "status.json"
+        r = subprocess.run([sys.executable, "-m", "sandbox", "gui", "sheath-dress",
+                            "--edge-cm", "4", "--max-frames", "5", "--status", str(status),
+                            "--width", "640", "--height", "480"],
+                           env=env, cwd=tmp_path, capture_output=True, text=True,
+                           timeout=600)  # fmt: skip
+        assert r.returncode == 0, r.stderr[-2000:]
+        st = json.loads(status.read_text())
+        assert st["frame"] == 5 and st["seams"] == []
+        assert st["measurements"]["bust_girth"] > 70
+    finally:
+        xvfb.terminate()
+        xvfb.wait(timeout=10)
