@@ -126,11 +126,28 @@ def test_bad_scripts_are_named(tmp_path):
     assert main(["--offscreen"]) == 2
 
 
+def _wait_status(path, proc, check, timeout=240.0):
+    import time
+
+    t0 = time.time()
+    while time.time() - t0 < timeout:
+        assert proc.poll() is None, proc.stderr.read()[-2000:] if proc.stderr else ""
+        try:
+            st = json.loads(path.read_text())
+            if check(st):
+                return st
+        except (FileNotFoundError, json.JSONDecodeError):
+            pass
+        time.sleep(0.3)
+    raise AssertionError(f"the window's status never satisfied the check ({path})")
+
+
 @pytest.mark.skipif(
-    shutil.which("Xvfb") is None or not _vulkan_ok(),
-    reason="needs Xvfb and Vulkan (CI installs xvfb, mesa-vulkan-drivers)",
+    shutil.which("Xvfb") is None or shutil.which("xdotool") is None or not _vulkan_ok(),
+    reason="needs Xvfb, xdotool and Vulkan (CI installs xvfb, xdotool, mesa-vulkan-drivers)",
 )
-def test_a_real_window_under_xvfb_opens_renders_and_reports(tmp_path):
+def test_a_real_window_under_xvfb_slider_drag_and_two_clicks_sew(tmp_path):
+    """xdotool drags the bust slider and clicks two panel edges in the real window."""
     import os
     import subprocess
     import sys
@@ -139,19 +156,50 @@ def test_a_real_window_under_xvfb_opens_renders_and_reports(tmp_path):
     display = ":97"
     xvfb = subprocess.Popen(["Xvfb", display, "-screen", "0", "1024x768x24"],
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)  # fmt: skip
+    gui = None
+    env = dict(os.environ, DISPLAY=display)
+    w, h = 640, 480
     try:
         time.sleep(1.0)
-        env = dict(os.environ, DISPLAY=display)
         status = tmp_path / "status.json"
-        r = subprocess.run([sys.executable, "-m", "sandbox", "gui", "sheath-dress",
-                            "--edge-cm", "4", "--max-frames", "5", "--status", str(status),
-                            "--width", "640", "--height", "480"],
-                           env=env, cwd=tmp_path, capture_output=True, text=True,
-                           timeout=600)  # fmt: skip
-        assert r.returncode == 0, r.stderr[-2000:]
-        st = json.loads(status.read_text())
-        assert st["frame"] == 5 and st["seams"] == []
-        assert st["measurements"]["bust_girth"] > 70
+        gui = subprocess.Popen([sys.executable, "-m", "sandbox", "gui", "sheath-dress",
+                                "--edge-cm", "4", "--max-frames", "100000", "--status",
+                                str(status), "--width", str(w), "--height", str(h)],
+                               env=env, cwd=tmp_path, stdout=subprocess.DEVNULL,
+                               stderr=subprocess.PIPE, text=True)  # fmt: skip
+        st = _wait_status(status, gui, lambda s: s["frame"] >= 3)
+        bust0 = st["measurements"]["bust_girth"]
+        win = subprocess.run(["xdotool", "search", "--name", "garment sandbox"], env=env,
+                             capture_output=True, text=True).stdout.split()[0]  # fmt: skip
+
+        def xdo(*args):
+            subprocess.run(["xdotool", *map(str, args)], env=env, check=True)
+
+        # drag along the side panel's first slider (the bust) until the body changes
+        changed = None
+        for y in range(28, 90, 6):
+            xdo("mousemove", "--window", win, 40, y, "mousedown", "1")
+            xdo("mousemove", "--window", win, 110, y)
+            xdo("mouseup", "1")
+            time.sleep(0.8)
+            st = json.loads(status.read_text())
+            if abs(st["measurements"]["bust_girth"] - bust0) > 1.0:
+                changed = st
+                break
+        assert changed is not None, "no slider drag reached the bust slider"
+        assert "bust_girth" in changed["message"]
+        # two clicks on two panel edges in sewing mode (the default) make a seam
+        session_pause = json.loads(status.read_text())["frame"]
+        _wait_status(status, gui, lambda s: s["frame"] > session_pause + 2, timeout=30)
+        for edge in ("front:5", "back:8"):
+            u, v = json.loads(status.read_text())["edge_screen"][edge]
+            xdo("mousemove", "--window", win, int(u * w), int((1 - v) * h), "click", "1")
+            time.sleep(0.8)
+        st = _wait_status(status, gui, lambda s: len(s["seams"]) == 1, timeout=30)
+        assert st["seams"] == [[[["front", 5]], [["back", 8]]]]
     finally:
+        if gui is not None:
+            gui.terminate()
+            gui.wait(timeout=30)
         xvfb.terminate()
         xvfb.wait(timeout=10)

@@ -33,6 +33,7 @@ import numpy as np
 import taichi as ti
 
 from sandbox.app.session import PICK_RADIUS_PX, Session
+from sandbox.errors import SandboxError
 
 BACKGROUND = (1.0, 1.0, 1.0)
 BODY_COLOUR = (0.78, 0.72, 0.64)
@@ -246,116 +247,28 @@ def run_window(session: Session, *, size=(1024, 768), frame_budget_s: float = 0.
     atomically each frame with the body's measurements, the seams and the HUD values) are
     for automated runs under Xvfb."""
     from sandbox.atomic import write_json
-    from sandbox.mannequin.measurements import KEYS, SUPPORTED_RANGE_CM
+    from sandbox.mannequin.measurements import KEYS
     from sandbox.sim.materials import list_presets
 
     r = Renderer(session, size, show_window=True)
     sewing = Sewing(session, r)
-    win, gui = r.window, r.window.get_gui()
     tape = session.mannequin.measure()
     values = {k: float(tape[k]) for k in KEYS}
     applied = dict(values)
     sew_mode, fps, frame, shots = True, 0.0, 0, 0
     presets = list_presets()
     dragging = None
-    while win.running and (max_frames is None or frame < max_frames):
+    while r.window.running and (max_frames is None or frame < max_frames):
         t0 = time.perf_counter()
-        for e in win.get_events(ti.ui.PRESS):
-            if e.key == ti.ui.ESCAPE:
-                win.running = False
-            elif e.key == " ":
-                session.playing = not session.playing
-            elif e.key in ("p", "P"):
-                shots += 1
-                r.save_png(f"screenshot_{shots:03d}.png")
-                session.message = f"saved screenshot_{shots:03d}.png"
-            elif e.key == ti.ui.LMB:
-                cur = win.get_cursor_pos()
-                if cur[0] < 0.3:  # the side panel
-                    continue
-                if sew_mode:
-                    sewing.click(cur, add=win.is_pressed(ti.ui.SHIFT),
-                                 side="b" if win.is_pressed("b") else None)  # fmt: skip
-                else:
-                    dragging = r.vertex_at(cur)
-                    if dragging is None:
-                        session.message = "no cloth vertex there"
-        if dragging is not None:
-            if win.is_pressed(ti.ui.LMB):
-                cur = np.asarray(win.get_cursor_pos())
-                x = session.positions()[dragging]
-                eye, target = r.camera_pose()
-                # keep the vertex at its depth, move it under the cursor
-                shift = (
-                    (cur - r.project(x[None])[0])
-                    * 2.0
-                    * np.linalg.norm(x - eye)
-                    * math.tan(math.radians(FOV_DEG) / 2.0)
-                )
-                f = (target - eye) / np.linalg.norm(target - eye)
-                right = np.cross(f, [0.0, 1.0, 0.0])
-                right /= np.linalg.norm(right)
-                up = np.cross(right, f)
-                session.drag(dragging, x + shift[0] * right * r.size[0] / r.size[1]
-                             + shift[1] * up)  # fmt: skip
-            else:
-                dragging = None
-        r.camera.track_user_inputs(win, movement_speed=0.03, hold_key=ti.ui.RMB)
-
-        with gui.sub_window("sandbox", 0.0, 0.0, 0.3, 1.0):
-            gui.text("mannequin [cm]")
-            for k in KEYS:
-                lo, hi = SUPPORTED_RANGE_CM[k]
-                values[k] = gui.slider_float(k.replace("_", " "), values[k], lo, hi)
-            for size in (8, 12, 16, 20):
-                if gui.button(f"size {size}"):
-                    from sandbox.mannequin.measurements import size_entry
-
-                    m = size_entry(size).measurements
-                    values = {k: float(getattr(m, k)) for k in KEYS}
-            session.playing = gui.checkbox("play (space)", session.playing)
-            gravity = gui.checkbox("gravity (off: sewing table)", session.gravity)
-            if gravity != session.gravity:
-                session.set_gravity(gravity)
-            if gui.button("step"):
-                session.run_frames(1)
-            if gui.button("reset"):
-                session.reset()
-            sew_mode = gui.checkbox("sewing mode (else drag)", sew_mode)
-            if gui.button("sew picked (shift-built sides)"):
-                sewing.finish()
-            if gui.button("sew the pattern's seams"):
-                session.sew_pattern_seams()
-            if gui.button("undo seam"):
-                session.undo_seam()
-            if gui.button("clear seams"):
-                session.clear_seams()
-            for p in presets[:6]:
-                if gui.button(f"fabric {p}"):
-                    session.set_fabric(p)
-                    r = _renderer_again(r, session, size)
-                    sewing = Sewing(session, r)
-            if gui.button("save meshes + pattern"):
-                session.save_meshes("sandbox_out")
-                session.save_pattern("sandbox_out/pattern.json")
-                session.message = "saved into sandbox_out/"
-            st = session.stats
-            gui.text(f"fps {fps:5.1f}   t = {st.sim_time_s:6.2f} s")
-            gui.text(f"max {1e3 * st.max_displacement_m:7.2f} mm  mean "
-                     f"{1e3 * st.mean_displacement_m:7.3f} mm")  # fmt: skip
-            gui.text("converged" if st.converged else "moving")
-            gui.text(f"seams {len(session.seams)}  springs {session.model.seam_count}")
-            gui.text(session.message[:60])
-        changed = {k: v for k, v in values.items() if abs(v - applied[k]) > 0.05}
-        if changed:
-            session.set_measurements(**changed)
-            applied.update(changed)
-        if session.playing:
-            t_sim = time.perf_counter()
-            while time.perf_counter() - t_sim < frame_budget_s:
-                session.run_frames(1)
+        try:
+            r, sewing, sew_mode, dragging, shots, values, applied = _frame(
+                session, r, sewing, sew_mode, dragging, shots, values, applied, size,
+                presets, fps, frame_budget_s)  # fmt: skip
+        except SandboxError as exc:  # a refused action: say it in the HUD, keep running
+            session.message = str(exc)
+            applied = dict(values)
         r.draw()
-        win.show()
+        r.window.show()
         frame += 1
         fps = 0.9 * fps + 0.1 / max(time.perf_counter() - t0, 1e-6)
         if status_path is not None:
@@ -367,6 +280,109 @@ def run_window(session: Session, *, size=(1024, 768), frame_budget_s: float = 0.
                                      "message": session.message,
                                      "edge_screen": {f"{p}:{k}": r.screen_of(p, k)
                                                      for p, k, _ in session.edges}})  # fmt: skip
+
+
+def _frame(session, r, sewing, sew_mode, dragging, shots, values, applied, size, presets, fps,
+           frame_budget_s):  # fmt: skip
+    """One frame of the window: events, the side panel, the slider changes, simulation."""
+    from sandbox.mannequin.measurements import KEYS, SUPPORTED_RANGE_CM
+
+    win, gui = r.window, r.window.get_gui()
+    for e in win.get_events(ti.ui.PRESS):
+        if e.key == ti.ui.ESCAPE:
+            win.running = False
+        elif e.key == " ":
+            session.playing = not session.playing
+        elif e.key in ("p", "P"):
+            shots += 1
+            r.save_png(f"screenshot_{shots:03d}.png")
+            session.message = f"saved screenshot_{shots:03d}.png"
+        elif e.key == ti.ui.LMB:
+            cur = win.get_cursor_pos()
+            if cur[0] < 0.3:  # the side panel
+                continue
+            if sew_mode:
+                sewing.click(cur, add=win.is_pressed(ti.ui.SHIFT),
+                             side="b" if win.is_pressed("b") else None)  # fmt: skip
+            else:
+                dragging = r.vertex_at(cur)
+                if dragging is None:
+                    session.message = "no cloth vertex there"
+    if dragging is not None:
+        if win.is_pressed(ti.ui.LMB):
+            cur = np.asarray(win.get_cursor_pos())
+            x = session.positions()[dragging]
+            eye, target = r.camera_pose()
+            # keep the vertex at its depth, move it under the cursor
+            shift = (
+                (cur - r.project(x[None])[0])
+                * 2.0
+                * np.linalg.norm(x - eye)
+                * math.tan(math.radians(FOV_DEG) / 2.0)
+            )
+            f = (target - eye) / np.linalg.norm(target - eye)
+            right = np.cross(f, [0.0, 1.0, 0.0])
+            right /= np.linalg.norm(right)
+            up = np.cross(right, f)
+            session.drag(dragging, x + shift[0] * right * r.size[0] / r.size[1]
+                         + shift[1] * up)  # fmt: skip
+        else:
+            dragging = None
+    r.camera.track_user_inputs(win, movement_speed=0.03, hold_key=ti.ui.RMB)
+
+    with gui.sub_window("sandbox", 0.0, 0.0, 0.3, 1.0):
+        gui.text("mannequin [cm]")
+        for k in KEYS:
+            lo, hi = SUPPORTED_RANGE_CM[k]
+            values[k] = gui.slider_float(k.replace("_", " "), values[k], lo, hi)
+        for size in (8, 12, 16, 20):
+            if gui.button(f"size {size}"):
+                from sandbox.mannequin.measurements import size_entry
+
+                m = size_entry(size).measurements
+                values = {k: float(getattr(m, k)) for k in KEYS}
+        session.playing = gui.checkbox("play (space)", session.playing)
+        gravity = gui.checkbox("gravity (off: sewing table)", session.gravity)
+        if gravity != session.gravity:
+            session.set_gravity(gravity)
+        if gui.button("step"):
+            session.run_frames(1)
+        if gui.button("reset"):
+            session.reset()
+        sew_mode = gui.checkbox("sewing mode (else drag)", sew_mode)
+        if gui.button("sew picked (shift-built sides)"):
+            sewing.finish()
+        if gui.button("sew the pattern's seams"):
+            session.sew_pattern_seams()
+        if gui.button("undo seam"):
+            session.undo_seam()
+        if gui.button("clear seams"):
+            session.clear_seams()
+        for p in presets[:6]:
+            if gui.button(f"fabric {p}"):
+                session.set_fabric(p)
+                r = _renderer_again(r, session, size)
+                sewing = Sewing(session, r)
+        if gui.button("save meshes + pattern"):
+            session.save_meshes("sandbox_out")
+            session.save_pattern("sandbox_out/pattern.json")
+            session.message = "saved into sandbox_out/"
+        st = session.stats
+        gui.text(f"fps {fps:5.1f}   t = {st.sim_time_s:6.2f} s")
+        gui.text(f"max {1e3 * st.max_displacement_m:7.2f} mm  mean "
+                 f"{1e3 * st.mean_displacement_m:7.3f} mm")  # fmt: skip
+        gui.text("converged" if st.converged else "moving")
+        gui.text(f"seams {len(session.seams)}  springs {session.model.seam_count}")
+        gui.text(session.message[:60])
+    changed = {k: v for k, v in values.items() if abs(v - applied[k]) > 0.05}
+    if changed:
+        session.set_measurements(**changed)
+        applied.update(changed)
+    if session.playing:
+        t_sim = time.perf_counter()
+        while time.perf_counter() - t_sim < frame_budget_s:
+            session.run_frames(1)
+    return r, sewing, sew_mode, dragging, shots, values, applied
 
 
 def _renderer_again(old: Renderer, session: Session, size) -> Renderer:

@@ -198,9 +198,11 @@ class Session:
         self.seams.append(seam)
         try:
             self._apply_seams()
-        except SandboxError:
+        except SandboxError as exc:
             self.seams.pop()
-            raise
+            self._apply_seams()
+            self.message = f"refused: {exc}"
+            return False
         self.message = f"sewn: {_side_text(a)} to {_side_text(b)}"
         return True
 

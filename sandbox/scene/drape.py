@@ -313,7 +313,8 @@ def seam_springs(scene, seams: list, positions: np.ndarray | None = None):
         pairs, rest, k = builder._sew(x, starts)
     finally:
         builder._seams = saved
-    return pairs, rest, k
+    keep = pairs[:, 0] != pairs[:, 1]  # a shared corner (a dart's tip) needs no spring
+    return pairs[keep], rest[keep], k[keep]
 
 
 def seam_direction(seam: dict, names: list[str], meshes: dict, placed: dict,
