@@ -264,6 +264,7 @@ def _report(args) -> int:
         presets = preset_runs(p["presets"], p["wall"], log)
         data.update(runs=[r.as_dict() for r in runs], sheet_reference=ref, speedup=speed,
                     presets=presets)  # fmt: skip
+        _save(out, data, args.only)
         png = out / "report" / "error_vs_runtime.png"
         from sandbox.validate.plot import loglog_png
 
@@ -288,11 +289,34 @@ def _report(args) -> int:
             ext = stability.extremes(INTEGRATORS, e["time_s"], e["wall"], ramp=e["ramp"],
                                      on_cell=lambda c: log(stability.cell_row(c)))  # fmt: skip
         data.update(matrix=[c.as_dict() for c in cells], extremes=[c.as_dict() for c in ext])
+        _save(out, data, args.only)
         write_text(out / "stability.md", stability_markdown(data, cells, ext, p))
     data["total_wall_s"] = time.perf_counter() - started
-    write_json(out / "report" / "report.json", _jsonable(data))
+    _save(out, data, args.only)
     log(f"report ({mode}) written to {out} in {data['total_wall_s']:.0f} s")
     return 0
+
+
+def _save(out: Path, data: dict, only: str) -> None:
+    """Write report.json now (a crash later keeps what ran); with ``--only``, keep the
+    other part from an existing report.json of the same mode."""
+    import json
+
+    path = out / "report" / "report.json"
+    merged = dict(data)
+    if only != "all" and path.is_file():
+        try:
+            old = json.loads(path.read_text(encoding="utf-8"))
+        except ValueError:
+            old = {}
+        if old.get("mode") == data["mode"]:
+            keep = ("matrix", "extremes")
+            if only == "stability":
+                keep = ("runs", "sheet_reference", "speedup", "presets")
+            for k in keep:
+                if k in old and k not in data:
+                    merged[k] = old[k]
+    write_json(path, _jsonable(merged))
 
 
 def _render(args) -> int:
@@ -464,6 +488,33 @@ def why_not_faster(runs: list[CaseRun]) -> list[str]:
     return out
 
 
+GUARD_TEXT = [
+    "## The guard",
+    "",
+    "`run_scene` (`sandbox/scene/run.py`) advances every scene a frame at a time through "
+    "`sandbox.sim.guard.StepGuard`. After each frame it checks for NaN/inf (the solver's "
+    "`first_bad()` and the state), for a rise of the mechanical energy (kinetic + elastic + "
+    "gravity) of more than M·|g|·L in one frame, for a warp/weft stretch above 4 (300 % "
+    "strain), and for more than 10 % of the triangles turning over in the frame while the "
+    "energy rose. On a failure it restores the last good state, halves dt (the frame is "
+    "re-run with twice the steps) and goes on; after 10 good frames it doubles dt again, "
+    "never above the scene's dt. After 6 halvings (dt/64) it restores the last good state "
+    "and raises `SimulationDiverged` with the step, the vertex (and its cloth) and the "
+    "reason; no mesh is written. `run_scene(..., guard=False)` keeps only the NaN check, "
+    "`guard=GuardConfig(...)` sets the thresholds.",
+    "",
+    "metrics.json gains `guard_enabled`, `guard_fired`, `guard_rollbacks`, "
+    "`guard_final_dt_s`, `guard_min_dt_s`, `guard_max_strain`, `guard_events` (frame, step, "
+    "dt, reason, vertex of the first 20 rollbacks), `dt_policy` (`guard-adaptive`), and "
+    "`dt_above_stable_limit` / `dt_warning`: a symplectic-Euler scene whose dt_s is above "
+    "the builder's stability estimate (`sandbox.scene.build.stable_dt_estimate`) is warned "
+    "(the message names that limit) and then runs on the guard's adaptive dt. The estimate "
+    "is conservative (the hanging sheets stay stable up to about 1.8× it), so a warned run "
+    "need not fire the guard.",
+    "",
+]
+
+
 def stability_markdown(data, cells, ext, p) -> str:
     m = p["matrix"]
     lines = [
@@ -483,6 +534,7 @@ def stability_markdown(data, cells, ext, p) -> str:
         "step and vertex; **wall limit** = the cap stopped it first (sim time shows how far "
         "it got). Max strain is the largest warp/weft strain at any frame end.",
         "",
+        *GUARD_TEXT,
         "## Summary (outcome per stiffness and dt)",
         "",
     ]
