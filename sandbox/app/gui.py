@@ -379,9 +379,7 @@ def _frame(session, r, sewing, sew_mode, dragging, shots, values, applied, size,
         session.set_measurements(**changed)
         applied.update(changed)
     if session.playing:
-        t_sim = time.perf_counter()
-        while time.perf_counter() - t_sim < frame_budget_s:
-            session.run_frames(1)
+        session.run_for(frame_budget_s)
     return r, sewing, sew_mode, dragging, shots, values, applied
 
 

@@ -90,6 +90,8 @@ class Session:
         self.collider = self.model.colliders[0]
         self.seams: list = []
         self._ramp: list[float] = []
+        self._frame_steps = 0
+        self._frame_x0 = None
         self._springs: list[tuple] = []
         self._seam_k: list[np.ndarray] = []
         self.message = ""
@@ -315,27 +317,19 @@ class Session:
     # ------------------------------------------------------------------ simulation
     def run_frames(self, frames: int = 1) -> FrameStats:
         """Simulate ``frames`` output frames (1/30 s each); returns the last frame's stats."""
-        from sandbox.scene.run import SimulationDiverged
-
         sc = self.scene
-        stop = sc.spec.stop
         for _ in range(int(frames)):
             t0 = time.perf_counter()
+            if self._frame_steps:  # finish a frame the window's budget left open
+                sc.solver.advance(self.state, sc.control, sc.dt_s,
+                                  sc.steps_per_frame - self._frame_steps)  # fmt: skip
+                self._frame_steps = 0
+                self._finish_frame(self._frame_x0, time.perf_counter() - t0)
+                continue
             self._stiffen()
             x0 = self.positions()
             sc.solver.advance(self.state, sc.control, sc.dt_s, sc.steps_per_frame)
-            bad = sc.solver.first_bad()
-            if bad is not None:
-                raise SimulationDiverged(f"the simulation diverged at vertex {bad[1]}; reset it")
-            d = np.linalg.norm(self.positions() - x0, axis=1)
-            s = self.stats
-            s.frame += 1
-            s.sim_time_s += sc.dt_s * sc.steps_per_frame
-            s.max_displacement_m = float(d.max())
-            s.mean_displacement_m = float(d.mean())
-            s.converged = (s.max_displacement_m < stop.max_displacement_m
-                           and s.mean_displacement_m < stop.mean_displacement_m)  # fmt: skip
-            s.wall_s = time.perf_counter() - t0
+            self._finish_frame(x0, time.perf_counter() - t0)
         return self.stats
 
     def set_gravity(self, on: bool) -> None:
@@ -344,11 +338,51 @@ class Session:
         self.scene.control.gravity[None] = self._gravity if on else (0.0, 0.0, 0.0)
         self.message = f"gravity {'on' if on else 'off'}"
 
+    def run_for(self, budget_s: float, chunk_steps: int = 8) -> int:
+        """Simulate for about ``budget_s`` of wall time in chunks of steps (the window's
+        frame budget, so drawing keeps its rate when a whole 1/30 s frame takes longer);
+        the HUD's stats are updated each time a whole frame's steps are done. Returns the
+        steps taken."""
+        sc = self.scene
+        t0 = time.perf_counter()
+        done = 0
+        while True:
+            if self._frame_steps == 0:
+                self._stiffen()
+                self._frame_x0 = self.positions()
+            k = min(chunk_steps, sc.steps_per_frame - self._frame_steps)
+            sc.solver.advance(self.state, sc.control, sc.dt_s, k)
+            done += k
+            self._frame_steps += k
+            if self._frame_steps >= sc.steps_per_frame:
+                self._frame_steps = 0
+                self._finish_frame(self._frame_x0, time.perf_counter() - t0)
+            if time.perf_counter() - t0 >= budget_s:
+                return done
+
+    def _finish_frame(self, x0: np.ndarray, wall_s: float) -> None:
+        from sandbox.scene.run import SimulationDiverged
+
+        sc = self.scene
+        bad = sc.solver.first_bad()
+        if bad is not None:
+            raise SimulationDiverged(f"the simulation diverged at vertex {bad[1]}; reset it")
+        d = np.linalg.norm(self.positions() - x0, axis=1)
+        s, stop = self.stats, sc.spec.stop
+        s.frame += 1
+        s.sim_time_s += sc.dt_s * sc.steps_per_frame
+        s.max_displacement_m = float(d.max())
+        s.mean_displacement_m = float(d.mean())
+        s.converged = (s.max_displacement_m < stop.max_displacement_m
+                       and s.mean_displacement_m < stop.mean_displacement_m)  # fmt: skip
+        s.wall_s = wall_s
+
     def reset(self) -> None:
         """Panels back to their start positions (seams and body kept)."""
         self.state.set(self.model.initial_positions_np)
         self.scene.solver.reset_watch()
         self.stats = FrameStats()
+        self._frame_steps = 0
         self.message = "reset"
 
     def set_fabric(self, preset: str) -> None:

@@ -1,0 +1,95 @@
+"""Interactive sandbox speed: frames per second while simulating, and slider latency.
+
+Usage: python benchmarks/bench_gui.py [--garment sheath-dress] [--edge-cm 1.5] [--frames 40]
+
+A real GGUI window when $DISPLAY is set (run it under Xvfb), else off-screen GGUI (the same
+Renderer), float32 on the CPU. A frame = the
+window's frame budget of simulation (``--budget`` s of solver.advance, whole 1/30 s frames,
+at least one) + drawing + reading the image back. Slider latency = resizing the mannequin
+(§2.1.4) + moving the collider + drawing the next frame. Target (issue 6): >= 30 fps with a
+5k-vertex garment simulating; a slider change shows within 100 ms.
+"""
+
+import argparse
+import os
+import platform
+import time
+
+import numpy as np
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--garment", default="sheath-dress")
+    ap.add_argument("--edge-cm", type=float, default=1.5)
+    ap.add_argument("--frames", type=int, default=40)
+    ap.add_argument("--size", type=int, nargs=2, default=[1024, 768])
+    ap.add_argument("--budget", type=float, default=0.025, help="simulation wall time per frame")
+    args = ap.parse_args()
+    from sandbox import runtime
+    from sandbox.app.gui import Renderer
+    from sandbox.app.session import Session
+
+    runtime.init("cpu")
+    s = Session(args.garment, edge_cm=args.edge_cm, sewn=True)
+    s.set_gravity(True)
+    windowed = bool(os.environ.get("DISPLAY"))  # a real window (e.g. under Xvfb) if possible
+    r = Renderer(s, tuple(args.size), show_window=windowed)
+
+    def present():
+        if windowed:
+            r.draw()
+            r.window.show()
+        else:
+            r.image()  # off-screen: draw and read the image back
+
+    s.run_frames(1)
+    r.image()  # compile and warm up
+    n = s.model.particle_count
+    sim, draw = [], []
+    for _ in range(args.frames):
+        t0 = time.perf_counter()
+        s.run_frames(1)
+        t1 = time.perf_counter()
+        r.image()
+        draw.append(time.perf_counter() - t1)
+        sim.append(t1 - t0)
+    sim, draw = np.array(sim), np.array(draw)
+    # the window's loop: a wall budget of simulation per displayed frame, then drawing
+    loop = []
+    for _ in range(args.frames):
+        t0 = time.perf_counter()
+        s.run_for(args.budget)
+        present()
+        loop.append(time.perf_counter() - t0)
+    loop = np.array(loop)
+    resize = []
+    for bust in (92.0, 96.0, 100.0, 94.0, 88.0):
+        t0 = time.perf_counter()
+        s.set_measurements(bust_girth=bust)
+        present()
+        resize.append(time.perf_counter() - t0)
+    w, h = args.size
+    where = f"a window on {os.environ['DISPLAY']}" if windowed else "off-screen GGUI"
+    print(f"machine: {platform.machine()}, {os.cpu_count()} cores, Python "
+          f"{platform.python_version()}, {where}, {w}x{h}")  # fmt: skip
+    dt, spf = s.scene.dt_s * 1e3, s.scene.steps_per_frame
+    print(f"{args.garment}: {n} vertices, {s.model.tri_count} triangles, dt {dt:.3f} ms, "
+          f"{spf} steps per 1/30 s frame")  # fmt: skip
+    ms_sim, ms_draw = 1e3 * np.median(sim), 1e3 * np.median(draw)
+    print(f"one simulated 1/30 s frame: {ms_sim:.1f} ms (median); drawing + read-back: "
+          f"{ms_draw:.1f} ms")  # fmt: skip
+    both, alone = 1.0 / np.median(sim + draw), 1.0 / np.median(draw)
+    print(f"display fps with one simulated frame per display frame: {both:.1f}; "
+          f"drawing alone: {alone:.1f} fps")  # fmt: skip
+    print(
+        f"window loop ({1e3 * args.budget:.0f} ms of simulation + draw + show): "
+        f"{1.0 / np.median(loop):.1f} fps"
+    )
+    print(f"real-time factor of the simulation: {(1 / 30) / np.median(sim):.2f}")
+    print(f"slider change to a new frame: {1e3 * np.median(resize):.0f} ms median, "
+          f"{1e3 * max(resize):.0f} ms max")  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()
