@@ -1,5 +1,6 @@
 """The interactive sandbox off-screen (issue 6): session actions, picking, GGUI frames."""
 
+import functools
 import json
 import shutil
 
@@ -9,20 +10,21 @@ import pytest
 from sandbox.errors import SandboxError
 
 
+@functools.cache
 def _vulkan_ok() -> bool:
+    """Can GGUI open an off-screen window here? Probed in a child process, so that this
+    test module's collection does not initialise Taichi (the suite runs in float64)."""
+    import subprocess
+    import sys
+
+    probe = ("import taichi as ti; ti.init(arch=ti.cpu); "
+             "w = ti.ui.Window('probe', (32, 32), show_window=False); "
+             "w.get_image_buffer_as_numpy()")  # fmt: skip
     try:
-        import taichi as ti
-
-        from sandbox import runtime
-
-        runtime.ensure_init()
-        w = ti.ui.Window("probe", (32, 32), show_window=False)
-        w.get_canvas().set_background_color((1, 1, 1))
-        w.get_image_buffer_as_numpy()
-        w.destroy()
-        return True
-    except Exception:  # noqa: BLE001 (any failure means: no GGUI here)
+        r = subprocess.run([sys.executable, "-c", probe], capture_output=True, timeout=120)
+    except (OSError, subprocess.TimeoutExpired):
         return False
+    return r.returncode == 0
 
 
 @pytest.fixture(scope="module")

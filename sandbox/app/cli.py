@@ -45,7 +45,7 @@ def main(argv: list[str] | None = None) -> int:
         from sandbox import runtime
         from sandbox.app.session import Session
 
-        runtime.init(args.arch)
+        runtime.init(args.arch, float64=runtime.is_float64())  # keep a caller's precision
         if args.offscreen and args.script is None:
             raise SandboxError("--offscreen needs --script FILE (a JSON list of actions)")
         actions = None
