@@ -143,4 +143,5 @@ def run_script(session, actions: list[dict], out_dir, *, size=(480, 480), source
             iio.imwrite(tmp, frames, extension=".gif", duration=1000 // fps, loop=0)
         summary["gif"] = str(out / "session.gif")
     write_json(out / "summary.json", summary)
+    r.window.destroy()  # GGUI's window must not outlive a later Taichi reset
     return summary
