@@ -325,3 +325,69 @@ def test_scene_picks_the_integrator():
 
     with pytest.raises(SandboxError, match="integrator"):
         scene_from_dict(data, source="t.toml")
+
+
+@pytest.mark.parametrize("seams", [False, True])
+def test_assembled_matrix_equals_the_matrix_free_product(seams):
+    scene = _sheet(stiff("denim", 10.0), pins=[{"corners": "top"}], integrator="implicit_euler")
+    s, m = scene.solver, scene.model
+    assert s.linear_solver == "direct"  # the CPU default
+    if seams:  # a live seam (rest 0 and rest > 0) changes the pattern
+        sewn = ImplicitEulerSolver(_with_seams(scene), linear_solver="direct")
+        s, m = sewn, sewn.model
+    s.advance(scene.state, scene.control, scene.dt_s, 2)
+    n = m.particle_count
+    y = np.random.default_rng(1).normal(size=(n, 3))
+    y[m.pinned_np] = 0.0
+    a = s.assembled_matrix()
+    assert a.shape == (3 * n, 3 * n)
+    assert abs(a - a.T).max() <= 1e-9 * abs(a).max()  # symmetric
+    got = (a @ y.ravel()).reshape(n, 3)
+    want = s.system_product(y)
+    free = ~m.pinned_np
+    assert np.abs(got[free] - want[free]).max() <= 1e-9 * np.abs(want).max()
+    assert np.allclose(a[np.ix_(*(np.flatnonzero(np.repeat(~free, 3)),) * 2)].toarray(),
+                       np.eye(3 * int((~free).sum())))  # fmt: skip
+
+
+def _with_seams(scene):
+    """The scene's sheet rebuilt with room for seams, two springs sewn (rest 0 and 1 cm)."""
+    from sandbox.sim.builder import ModelBuilder
+    from sandbox.sim.materials import get_material
+    from sandbox.sim.seams import set_seam_springs
+
+    m0 = scene.model
+    b = ModelBuilder()
+    b.add_cloth(name="s", pattern_uv=m0.rest_uv_np, triangles=m0.tri_indices_np,
+                material=get_material("denim"), positions=m0.initial_positions_np,
+                pinned=m0.pinned_np)  # fmt: skip
+    m = b.finalize(seam_capacity=4)
+    n = m.particle_count
+    set_seam_springs(m, np.array([[n // 3, n - 1], [n // 2, 5]]), np.array([0.0, 0.01]),
+                     np.array([50.0, 80.0]))  # fmt: skip
+    scene.state, scene.control = m.state(), m.control(gravity=(0.0, -9.80665, 0.0))
+    return m
+
+
+@pytest.mark.parametrize("factor", ["banded", "superlu"])
+def test_direct_and_cg_linear_solvers_agree(factor, monkeypatch):
+    from sandbox.sim import sparse
+
+    if factor == "superlu":  # the wide-band path: LU, reused as CG's preconditioner
+        monkeypatch.setattr(sparse, "BANDED_FLOPS", 0.0)
+    runs = {}
+    for name in ("direct", "cg"):
+        scene = _sheet(stiff("denim", 100.0), pins=[{"corners": "top"}], damping=8.0,
+                       rotation=-90.0, integrator="implicit_euler")  # fmt: skip
+        scene.solver = ImplicitEulerSolver(scene.model, linear_solver=name)
+        x, sag = _run(scene, 0.5)
+        runs[name] = (x, scene.solver.stats())
+    (xd, sd), (xc, sc) = runs["direct"], runs["cg"]
+    assert sd["unconverged_steps"] == 0 and sc["unconverged_steps"] == 0
+    assert np.abs(xd - xc).max() <= 1e-4  # both within the Newton tolerance of the solution
+    assert sd["factorisations"] >= 1 and sc["factorisations"] == 0
+    assert sd["newton_iterations"] <= sc["newton_iterations"]
+    if factor == "superlu":  # the factors were reused: fewer factorisations than solves
+        assert sd["factorisations"] < sd["newton_iterations"]
+    else:
+        assert sd["factorisations"] == sd["newton_iterations"]

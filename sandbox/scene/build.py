@@ -238,14 +238,14 @@ def build_scene(spec: SceneSpec) -> Scene:
     steps = max(1, math.ceil(frame / dt - 1e-9))
     dt = frame / steps  # a whole number of steps per output frame
     control = model.control(gravity=sim.gravity_m_s2, damping_per_s=sim.damping_per_s)
-    return Scene(spec, model, model.state(), control, make_solver(model, sim.integrator), dt,
-                 steps, limit)  # fmt: skip
+    solver = make_solver(model, sim.integrator, sim.linear_solver)
+    return Scene(spec, model, model.state(), control, solver, dt, steps, limit)
 
 
-def make_solver(model: Model, integrator: str):
-    """The solver named by ``[simulation] integrator``."""
+def make_solver(model: Model, integrator: str, linear_solver: str = "auto"):
+    """The solver named by ``[simulation] integrator`` (and ``linear_solver``)."""
     if integrator == "implicit_euler":
         from sandbox.sim.implicit import ImplicitEulerSolver
 
-        return ImplicitEulerSolver(model)
+        return ImplicitEulerSolver(model, linear_solver=linear_solver)
     return SymplecticEulerSolver(model)

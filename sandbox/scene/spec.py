@@ -16,6 +16,7 @@ from sandbox.errors import SandboxError
 from sandbox.sim.materials import Material, material_from_spec
 
 INTEGRATORS = ("symplectic_euler", "implicit_euler")
+LINEAR_SOLVERS = ("auto", "direct", "cg")  # the implicit solver's Newton systems
 SHAPES = ("rectangle", "polygon")
 MESHERS = ("irregular", "grid")
 SIDES = ("top", "bottom", "left", "right")
@@ -60,6 +61,7 @@ class SimulationSpec:
     gravity_m_s2: tuple[float, float, float] = (0.0, -9.80665, 0.0)
     damping_per_s: float = 0.5
     bending: bool = True
+    linear_solver: str = "auto"  # implicit_euler only: "auto", "direct" or "cg"
 
 
 @dataclass
@@ -182,7 +184,7 @@ def scene_from_dict(data: dict, *, source: str = "<scene>") -> SceneSpec:
 def _simulation(r: _Reader, t: dict) -> SimulationSpec:
     w = "[simulation]"
     r.keys(t, w, {"integrator", "dt_s", "frame_rate_hz", "gravity_m_s2", "damping_per_s",
-                  "bending"})  # fmt: skip
+                  "bending", "linear_solver"})  # fmt: skip
     s = SimulationSpec()
     s.integrator = r.choice(t, w, "integrator", INTEGRATORS, s.integrator)
     dt = t.get("dt_s", "auto")
@@ -191,6 +193,7 @@ def _simulation(r: _Reader, t: dict) -> SimulationSpec:
     s.gravity_m_s2 = r.vector(t, w, "gravity_m_s2", 3, s.gravity_m_s2)
     s.damping_per_s = r.number(t, w, "damping_per_s", s.damping_per_s, minimum=0.0)
     s.bending = r.boolean(t, w, "bending", s.bending)
+    s.linear_solver = r.choice(t, w, "linear_solver", LINEAR_SOLVERS, s.linear_solver)
     if s.dt_s is not None and s.dt_s > 1.0 / s.frame_rate_hz:
         raise SandboxError(f"{r.source}: {w} dt_s ({s.dt_s}) is longer than one frame")
     return s

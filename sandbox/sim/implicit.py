@@ -75,6 +75,12 @@ class ImplicitEulerSolver:
             Off by default: measured slower on a falling stiff sheet (docs/implicit.md).
         max_newton: Newton iterations per step before the step is flagged unconverged.
         max_cg: CG iterations per Newton iteration.
+        linear_solver: how each Newton system is solved. ``"direct"``: assembled and
+            factorised by sparse LU, the factors reused as CG's preconditioner while they
+            work (:mod:`sandbox.sim.sparse`); ``"cg"``: matrix-free CG with the block-Jacobi
+            preconditioner, all in Taichi kernels (what a GPU runs); ``"auto"``: direct on
+            the CPU, cg elsewhere or with ``compression_stiffness`` (whose matrix can be
+            indefinite).
     """
 
     def __init__(
@@ -87,15 +93,19 @@ class ImplicitEulerSolver:
         max_cg: int = 2000,
         compression_stiffness: bool = False,
         rel_tol: float = 0.0,
+        linear_solver: str = "auto",
     ):
         self.model = model
         self.fused = runtime.arch() == "cpu" and model.particle_count <= FUSED_PARTICLE_LIMIT
+        # small meshes: every loop serial (no thread-pool launch, atomics become plain adds)
+        self.serial = self.fused
         self.tol_m_s = float(tol_m_s)
         self.rel_tol = float(rel_tol)
         self.cg_tol = float(cg_tol)
         self.max_newton = int(max_newton)
         self.max_cg = int(max_cg)
         self.compression_stiffness = bool(compression_stiffness)
+        self.linear_solver = resolve_linear_solver(linear_solver, self.compression_stiffness)
         n = max(1, model.particle_count)
         m = max(1, model.tri_count)
         vec = lambda k: ti.Vector.field(3, REAL, shape=k)  # noqa: E731
@@ -137,6 +147,9 @@ class ImplicitEulerSolver:
         self.bad_step = ti.field(ti.i32, shape=())
         self.bad_vertex = ti.field(ti.i32, shape=())
         self.sc_x = self.sc_v = None  # state-precision copies for a self-collision pass
+        self.pattern = self.factor = None
+        if self.linear_solver == "direct":
+            self._init_direct()
         self.reset_watch()
         self.reset_stats()
         self.last: dict = {}
@@ -238,10 +251,14 @@ class ImplicitEulerSolver:
         step max|Δx| [m] and over h [m/s], the error estimate and the tolerance [m], the
         largest force residual of backward Euler at the accepted point over the vertex
         weight |∇E_i|/(m_i·9.80665), line-search halvings, converged (estimate <= tolerance).
-        Totals keep the worst error/tolerance ratio over all steps.
+        Totals keep the worst error/tolerance ratio over all steps. With the direct linear
+        solver, "CG iterations" count 1 per exact solve plus the preconditioned iterations
+        on reused factors, and ``factorisations`` counts the LU factorisations.
         """
+        factorisations = self.factor.factorisations if self.factor is not None else 0
         return {**self.totals, "tol_m_s": self.tol_m_s, "rel_tol": self.rel_tol,
-                "cg_tol": self.cg_tol, "last": dict(self.last)}  # fmt: skip
+                "cg_tol": self.cg_tol, "linear_solver": self.linear_solver,
+                "factorisations": factorisations, "last": dict(self.last)}  # fmt: skip
 
     def internal_energy(self, state: State) -> float:
         """U = Σ (U_u + U_v + U_s) + Σ U_b + Σ U_seam of Eq. 7 [J]."""
@@ -260,6 +277,8 @@ class ImplicitEulerSolver:
     # ------------------------------------------------------------------ Newton pieces
     def _solve(self) -> int:
         """CG on (M c + H) Δx = −∇E; returns the iterations used."""
+        if self.pattern is not None:
+            return self._solve_direct()
         self._cg_init()
         rr0 = float(self.rr[None])
         if rr0 <= 0.0:
@@ -272,6 +291,41 @@ class ImplicitEulerSolver:
             if float(self.rr[None]) <= target or self.negative[None]:
                 return k
         return self.max_cg
+
+    def _init_direct(self) -> None:
+        """Fields for the assembled matrix (``linear_solver="direct"``)."""
+        from sandbox.sim import sparse
+
+        m = self.model
+        self.pattern = sparse.BlockPattern(m)
+        self.factor = sparse.FactorisedSolver()
+        self.blocks = ti.Matrix.field(3, 3, REAL, shape=self.pattern.max_blocks())
+        self.tri_block = sparse.index_field(self.pattern.tri_block)
+        self.hinge_block = sparse.index_field(self.pattern.hinge_block)
+        self.diag_block = sparse.index_field(self.pattern.diag_block)
+        self.seam_block = None
+        if m.has_seams:
+            self.seam_block = ti.field(ti.i32, shape=(m.seam_capacity, 4))
+            self._load_seam_blocks()
+
+    def _load_seam_blocks(self) -> None:
+        pad = np.zeros((self.model.seam_capacity, 4), np.int32)
+        pad[: len(self.pattern.seam_block)] = self.pattern.seam_block
+        self.seam_block.from_numpy(pad)
+
+    def _solve_direct(self) -> int:
+        """Assemble A = M c + H, solve A Δx = −∇E with the (re)used factors."""
+        n = self.model.particle_count
+        if self.pattern.update():  # seams sewn or cut since the last solve
+            self._load_seam_blocks()
+            self.factor.invalidate()
+        self._assemble()
+        b = self.pattern.permute(-self.grad.to_numpy()[:n])
+        dx, iterations = self.factor.solve(self.pattern, self.blocks.to_numpy(), b)
+        pad = np.zeros((max(1, n), 3))
+        pad[:n] = self.pattern.unpermute(dx)
+        self.dx.from_numpy(pad)
+        return iterations
 
     def _line_search(self) -> int:
         """Backtracking on E along Δx (Armijo); returns the number of halvings."""
@@ -313,10 +367,13 @@ class ImplicitEulerSolver:
         self._post_solve()
         self._trial(0.0)
         self._internal_energy_kernel(state.x)
+        if self.pattern is not None:
+            self._assemble()
 
     # ------------------------------------------------------------------ kernels
     @ti.kernel
     def _copy(self, xi: ti.template(), vi: ti.template(), xo: ti.template(), vo: ti.template()):
+        ti.loop_config(serialize=self.serial)
         for i in range(self.model.particle_count):
             xo[i] = xi[i]
             vo[i] = vi[i]
@@ -324,6 +381,7 @@ class ImplicitEulerSolver:
     @ti.kernel
     def _begin(self, x_in: ti.template(), v_in: ti.template(), gravity: ti.template()):
         h = self.h[None]
+        ti.loop_config(serialize=self.serial)
         for i in range(self.model.particle_count):
             self.x0[i] = x_in[i]
             self.xh[i] = x_in[i] + h * v_in[i] + h * h * gravity[None]
@@ -359,6 +417,7 @@ class ImplicitEulerSolver:
     def _elastic_energy(self, x, acc):
         """acc[None] += U(x) [J] (float64 sum)."""
         m = self.model
+        ti.loop_config(serialize=self.serial)
         for t in range(m.tri_count):
             i = m.tri_indices[t]
             f_u, f_v = forces.deformation_columns(x[i[0]], x[i[1]], x[i[2]], m.tri_rest_inv[t])
@@ -366,12 +425,14 @@ class ImplicitEulerSolver:
             u = forces.eq7_membrane_energy(f_u, f_v, m.tri_rest_area[t], k[0], k[1], k[2])
             acc[None] += ti.cast(u, ti.f64)
         if ti.static(m.hinge_count > 0):
+            ti.loop_config(serialize=self.serial)
             for h in range(m.hinge_count):
                 j = m.hinge_indices[h]
                 th = forces.dihedral_angle(x[j[0]], x[j[1]], x[j[2]], x[j[3]])
                 d = th - m.hinge_rest_angle[h]
                 acc[None] += ti.cast(0.5 * m.hinge_stiffness[h] * d * d, ti.f64)
         if ti.static(m.has_seams):
+            ti.loop_config(serialize=self.serial)
             for q in range(m.seam_active[None]):
                 s = (x[m.seam_pairs[q][0]] - x[m.seam_pairs[q][1]]).norm() - m.seam_rest[q]
                 acc[None] += ti.cast(0.5 * m.seam_stiffness[q] * s * s, ti.f64)
@@ -388,6 +449,7 @@ class ImplicitEulerSolver:
         x = ti.static(self.x)
         self.energy[None] = 0.0
         self.max_res[None] = 0.0
+        ti.loop_config(serialize=self.serial)
         for t in range(m.tri_count):
             i = m.tri_indices[t]
             f_u, f_v = forces.deformation_columns(x[i[0]], x[i[1]], x[i[2]], m.tri_rest_inv[t])
@@ -404,6 +466,7 @@ class ImplicitEulerSolver:
             self.t_huv[t] = h_uv
             self.t_hvv[t] = h_vv
         if ti.static(m.hinge_count > 0):
+            ti.loop_config(serialize=self.serial)
             for h in range(m.hinge_count):
                 j = m.hinge_indices[h]
                 th, g0, g1, g2, g3 = forces.dihedral_angle_gradient(
@@ -416,6 +479,7 @@ class ImplicitEulerSolver:
                 self.h_grad[4 * h + 2] = g2
                 self.h_grad[4 * h + 3] = g3
         if ti.static(m.has_seams):
+            ti.loop_config(serialize=self.serial)
             for q in range(m.seam_active[None]):
                 d = x[m.seam_pairs[q][0]] - x[m.seam_pairs[q][1]]
                 r = m.seam_rest[q]
@@ -431,6 +495,7 @@ class ImplicitEulerSolver:
         self._elastic_energy(x, self.energy)
         h = self.h[None]
         c_mass = 1.0 / (h * h) + self.gamma[None] / h
+        ti.loop_config(serialize=self.serial)
         for i in range(m.particle_count):
             g = ti.Vector.zero(REAL, 3)
             d = ti.Matrix.zero(REAL, 3, 3)
@@ -532,6 +597,73 @@ class ImplicitEulerSolver:
             pap[None] += ti.cast(p[i].dot(y), ti.f64)
 
     @ti.kernel
+    def _assemble(self):
+        """blocks := the 3x3 blocks of M (1/h² + γ/h) + H (pattern of ``self.pattern``).
+
+        The same element Hessians as :meth:`_apply`: triangle corners (a, b) couple through
+        c_u,a c_u,b H_uu + c_u,a c_v,b H_uv + c_v,a c_u,b H_uvᵀ + c_v,a c_v,b H_vv, hinge
+        vertices through E_b g_a g_bᵀ, seam ends through ±S. Pinned vertices get identity.
+        """
+        m = self.model
+        ti.loop_config(serialize=self.serial)
+        for k in range(self.blocks.shape[0]):
+            self.blocks[k] = ti.Matrix.zero(REAL, 3, 3)
+        ti.loop_config(serialize=self.serial)
+        for t in range(m.tri_count):
+            i = m.tri_indices[t]
+            huu, huv, hvv = self.t_huu[t], self.t_huv[t], self.t_hvv[t]
+            for a in ti.static(range(3)):
+                cua, cva = self._corner(t, a)
+                for b in ti.static(range(3)):
+                    cub, cvb = self._corner(t, b)
+                    if m.particle_inv_mass[i[a]] > 0.0 and m.particle_inv_mass[i[b]] > 0.0:
+                        blk = cua * (cub * huu + cvb * huv) + cva * (cub * huv.transpose()
+                                                                     + cvb * hvv)  # fmt: skip
+                        self.blocks[self.tri_block[t, 3 * a + b]] += blk
+        if ti.static(m.hinge_count > 0):
+            ti.loop_config(serialize=self.serial)
+            for h in range(m.hinge_count):
+                j = m.hinge_indices[h]
+                for a in ti.static(range(4)):
+                    for b in ti.static(range(4)):
+                        if m.particle_inv_mass[j[a]] > 0.0 and m.particle_inv_mass[j[b]] > 0.0:
+                            ga = self.h_grad[4 * h + a]
+                            gb = self.h_grad[4 * h + b]
+                            self.blocks[self.hinge_block[h, 4 * a + b]] += self.h_k[h] * (
+                                ga.outer_product(gb)
+                            )
+        if ti.static(m.has_seams):
+            ti.loop_config(serialize=self.serial)
+            for q in range(m.seam_active[None]):
+                p = m.seam_pairs[q]
+                s_h = self.s_hess[q]
+                for a in ti.static(range(2)):
+                    for b in ti.static(range(2)):
+                        if m.particle_inv_mass[p[a]] > 0.0 and m.particle_inv_mass[p[b]] > 0.0:
+                            sign = 1.0 if a == b else -1.0
+                            self.blocks[self.seam_block[q, 2 * a + b]] += sign * s_h
+        hh = self.h[None]
+        c_mass = 1.0 / (hh * hh) + self.gamma[None] / hh
+        ti.loop_config(serialize=self.serial)
+        for i in range(m.particle_count):
+            d = ti.Matrix.identity(REAL, 3)
+            if m.particle_inv_mass[i] > 0.0:
+                d = m.particle_mass[i] * c_mass * ti.Matrix.identity(REAL, 3)
+            self.blocks[self.diag_block[i]] += d
+
+    def assembled_matrix(self):
+        """The Newton matrix of the last evaluation as scipy CSC (3n x 3n); for tests.
+
+        Only with ``linear_solver="direct"``."""
+        self.pattern.update()
+        if self.seam_block is not None:
+            self._load_seam_blocks()
+        self._assemble()
+        p = self.pattern  # back from the band order to vertex order
+        scalar = (3 * p.position[:, None] + np.arange(3)).ravel()
+        return p.matrix(self.blocks.to_numpy())[scalar][:, scalar].tocsc()
+
+    @ti.kernel
     def _apply_kernel(self):
         self._apply(self.p, self.ap, self.pap)
 
@@ -587,6 +719,7 @@ class ImplicitEulerSolver:
         self.max_dx[None] = 0.0
         self.max_move[None] = 0.0
         self.slope[None] = 0.0
+        ti.loop_config(serialize=self.serial)
         for i in range(self.model.particle_count):
             ti.atomic_max(self.max_dx[None], self.dx[i].norm())
             ti.atomic_max(self.max_move[None], (self.x[i] - self.x0[i]).norm())
@@ -594,27 +727,32 @@ class ImplicitEulerSolver:
 
     @ti.kernel
     def _trial(self, alpha: float):
+        ti.loop_config(serialize=self.serial)
         for i in range(self.model.particle_count):
             self.xt[i] = self.x[i] + alpha * self.dx[i]
         self.energy_t[None] = 0.0
         self._elastic_energy(self.xt, self.energy_t)
+        ti.loop_config(serialize=self.serial)
         for i in range(self.model.particle_count):
             self.energy_t[None] += ti.cast(self._inertia(i, self.xt[i]), ti.f64)
 
     @ti.kernel
     def _trial_gravity(self, w: float):
         """xt = x_n + h v_n + w (x̂ − x_n − h v_n) on free vertices (dx holds h v_n)."""
+        ti.loop_config(serialize=self.serial)
         for i in range(self.model.particle_count):
             self.xt[i] = self.x0[i]
             if self.model.particle_inv_mass[i] > 0.0:
                 self.xt[i] = self.x0[i] + self.dx[i] + w * (self.xh[i] - self.x0[i] - self.dx[i])
         self.energy_t[None] = 0.0
         self._elastic_energy(self.xt, self.energy_t)
+        ti.loop_config(serialize=self.serial)
         for i in range(self.model.particle_count):
             self.energy_t[None] += ti.cast(self._inertia(i, self.xt[i]), ti.f64)
 
     @ti.kernel
     def _accept(self):
+        ti.loop_config(serialize=self.serial)
         for i in range(self.model.particle_count):
             self.x[i] = self.xt[i]
 
@@ -668,6 +806,24 @@ class ImplicitEulerSolver:
                 ti.atomic_min(self.bad_vertex[None], i)
             x_out[i] = ti.cast(x_new, float)
             v_out[i] = ti.cast(v, float)
+
+
+LINEAR_SOLVERS = ("auto", "direct", "cg")
+
+
+def resolve_linear_solver(name: str, compression_stiffness: bool = False) -> str:
+    """``"direct"`` or ``"cg"`` for the ``linear_solver`` argument (see the class)."""
+    from sandbox.errors import SandboxError
+
+    if name not in LINEAR_SOLVERS:
+        raise SandboxError(f"linear_solver must be one of {', '.join(LINEAR_SOLVERS)}, "
+                           f"got {name!r}")  # fmt: skip
+    if name == "auto":
+        return "direct" if runtime.arch() == "cpu" and not compression_stiffness else "cg"
+    if name == "direct" and compression_stiffness:
+        raise SandboxError("linear_solver 'direct' needs a positive definite matrix: "
+                           "turn compression_stiffness off or use 'cg'")  # fmt: skip
+    return name
 
 
 def newton_error_estimate(step: float, previous: float, tol: float) -> float:

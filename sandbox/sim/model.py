@@ -88,6 +88,7 @@ class Model:
         self.seam_pairs_np = seam_pairs
         self.seam_rest_np = seam_rest
         self.seam_stiffness_np = seam_stiffness
+        self.seam_version = 0
         self.pieces = pieces
         self.rest_uv_np = rest_uv
         self.initial_positions_np = positions
@@ -186,6 +187,7 @@ class Model:
         self.vert_seam_slot.from_numpy(pad_slot)
         self.seam_active[None] = k
         self.seam_count = k
+        self.seam_version += 1  # solvers that keep a sparsity pattern rebuild it
         self.seam_pairs_np = pairs if k else None
         self.seam_rest_np = rest if k else None
         self.seam_stiffness_np = stiffness if k else None
