@@ -165,6 +165,10 @@ def _add_drape_parsers(sub) -> None:
     p.add_argument("--fast-sew", action="store_true",
                    help="no self-collision while sewing: about 3x faster, but panels may "
                    "pass through each other and keep those crossings")  # fmt: skip
+    p.add_argument("--integrator", choices=["symplectic_euler", "implicit_euler"],
+                   default="symplectic_euler",
+                   help="symplectic_euler (the paper's Eq. 2, default) or implicit_euler "
+                   "(backward Euler at 1/60 s steps, docs/implicit.md)")  # fmt: skip
     p.add_argument("--out", type=Path, default=None, help="output directory (created)")
     p.add_argument("--no-render", action="store_true", help="skip the PNGs")
     _add_runtime_flags(p)
@@ -208,6 +212,7 @@ def cmd_drape(args) -> int:
     options = {
         "self_collision": not args.no_self_collision,
         "sew_self_collision": not (args.fast_sew or args.no_self_collision),
+        "integrator": args.integrator,
     }
     if args.time_limit is not None:
         if not args.time_limit > 0:

@@ -146,6 +146,7 @@ class ImplicitEulerSolver:
         self.cg_k = ti.field(ti.i32, shape=())
         self.bad_step = ti.field(ti.i32, shape=())
         self.bad_vertex = ti.field(ti.i32, shape=())
+        self.self_collider = model.self_collider  # None switches the passes off (sewing)
         self.sc_x = self.sc_v = None  # state-precision copies for a self-collision pass
         self.pattern = self.factor = None
         if self.linear_solver == "direct":
@@ -759,7 +760,7 @@ class ImplicitEulerSolver:
     def _finish(self, x_out, v_out, index: int) -> None:
         """v_n+1 = (x − x_n)/h, contact revises it, x_n+1 = x_n + h v_n+1."""
         self._velocities()
-        sc = getattr(self.model, "self_collider", None)
+        sc = self.self_collider
         if sc is not None:  # the cloth's self-collision pass, when the scene has one
             if self.sc_x is None:  # it works on state-precision fields
                 n = max(1, self.model.particle_count)

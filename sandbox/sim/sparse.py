@@ -175,7 +175,11 @@ class FactorisedSolver:
             x, k, ok = self._pcg(a, b)
             if ok:
                 return x, k
-        self.lu = spl.splu(a, permc_spec="MMD_AT_PLUS_A")
+        # A is symmetric positive definite: no pivoting needed, and pivoting for size
+        # (SuperLU's default) wrecks the fill-reducing order when stiffnesses span decades
+        # (0.57 s instead of ~10 ms for a 2.6k-unknown garment with seams)
+        self.lu = spl.splu(a, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                           options={"SymmetricMode": True})  # fmt: skip
         self.factorisations += 1
         return self.lu.solve(b), 1
 
