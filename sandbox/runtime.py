@@ -16,7 +16,14 @@ from sandbox.errors import SandboxError
 log = logging.getLogger(__name__)
 
 _ARCHES = {"cpu": "cpu", "gpu": "gpu", "cuda": "cuda", "vulkan": "vulkan", "metal": "metal"}
-_state: dict = {"initialised": False, "arch": None, "float64": None}
+_state: dict = {"initialised": False, "arch": None, "float64": None, "debug": False}
+
+MAX_SNODE_TREES = 512
+"""Taichi's limit on field trees per runtime (LLVM backends). Every field allocated and
+then written before the next one is allocated becomes a tree of its own, and trees are
+never freed while the runtime lives: a process that builds many scenes (the report, the
+test suite) ran out and crashed inside Taichi (a segmentation fault, no message)."""
+RECYCLE_AT = 320
 
 
 def init(arch: str = "cpu", *, float64: bool = False, debug: bool = False) -> None:
@@ -38,7 +45,7 @@ def init(arch: str = "cpu", *, float64: bool = False, debug: bool = False) -> No
         offline_cache=True,
         log_level=ti.WARN,
     )
-    _state.update(initialised=True, arch=arch, float64=float64)
+    _state.update(initialised=True, arch=arch, float64=float64, debug=debug)
     log.debug("taichi initialised on %s (float64=%s)", arch, float64)
 
 
@@ -62,3 +69,29 @@ def float_dtype():
     import numpy as np
 
     return np.float64 if _state["float64"] else np.float32
+
+
+def snode_trees() -> int:
+    """Field trees allocated in this Taichi runtime so far (0 before initialisation)."""
+    if not _state["initialised"]:
+        return 0
+    from taichi.lang import impl
+
+    return int(impl.get_runtime().prog.get_snode_tree_size())
+
+
+def recycle(threshold: int = RECYCLE_AT) -> bool:
+    """Start a fresh Taichi runtime (same arch and precision) if more than ``threshold``
+    field trees are allocated; returns True if it did.
+
+    Call it between independent scenes only: every field, model, state and solver made
+    before becomes invalid. Kernels are compiled again on first use (the offline cache
+    makes that quick).
+    """
+    if snode_trees() <= threshold:
+        return False
+    ti.reset()
+    _state["initialised"] = False
+    init(_state["arch"] or "cpu", float64=bool(_state["float64"]), debug=bool(_state["debug"]))
+    log.debug("taichi runtime recycled after %d field trees", threshold)
+    return True

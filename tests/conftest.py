@@ -10,3 +10,11 @@ def taichi_f64():
     """Tests compare against finite differences and references: run Taichi in float64."""
     runtime.init("cpu", float64=True)
     yield
+
+
+@pytest.fixture(scope="module", autouse=True)
+def fresh_field_trees():
+    """Each test module starts with room for its fields: Taichi allows 512 field trees per
+    runtime and frees none, so a long session reset it when past ``runtime.RECYCLE_AT``."""
+    runtime.recycle()
+    yield

@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sandbox import runtime
 from sandbox.errors import SandboxError
 
 log = logging.getLogger(__name__)
@@ -68,6 +69,7 @@ def gallery(
         if progress:
             print(f"[{i + 1}/{len(chosen)}] {name} ...", flush=True)
         t0 = time.perf_counter()
+        runtime.recycle()  # the garments before are written out: free Taichi's field trees
         try:
             res = drape(name, mannequin=mannequin, out_dir=out / name, edge_length_m=edge,
                         progress=False, meshes=meshes, **options)  # fmt: skip

@@ -27,6 +27,7 @@ from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
+from sandbox import runtime
 from sandbox.scene.build import build_scene, rotation_matrix
 from sandbox.scene.run import SimulationDiverged, run_scene
 from sandbox.scene.spec import SceneSpec, scene_from_dict
@@ -75,6 +76,7 @@ class CaseRun:
 def _execute(spec: SceneSpec, integrator: str, dt_s: float | None, wall_limit_s: float,
              on_frame=None):  # fmt: skip
     """Build and run; returns (scene, RunResult or None, error message or None, build s)."""
+    runtime.recycle()  # the cases before this one are data now: free Taichi's field trees
     spec.simulation.integrator = integrator
     spec.simulation.dt_s = dt_s
     spec.stop.wall_limit_s = wall_limit_s
@@ -217,6 +219,7 @@ def sheet_probe(scene, x: np.ndarray) -> np.ndarray:
 
 def sheet_reference(h: float, dt_factor: float, time_s: float, wall_limit_s: float) -> dict:
     """The fine explicit reference: probe points and its cost."""
+    runtime.recycle()
     spec = sheet_spec(h, time_s)
     spec.simulation.integrator = "symplectic_euler"
     scene = build_scene(spec)
@@ -326,6 +329,7 @@ def preset_spec(preset: str, factor: float, time_s: float) -> SceneSpec:
 
 def preset_x100(preset: str, time_s: float, wall_limit_s: float, factor: float = 100.0) -> dict:
     """Implicit Euler at 1/60 s against symplectic Euler at its stable step, same scene."""
+    runtime.recycle()
     out = {"preset": preset, "factor": factor, "time_s": time_s}
     res = {}
     for integ in INTEGRATORS:

@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from sandbox import runtime
 from sandbox.pattern.mesh2d import mesh_grid
 from sandbox.scene import build as build_mod
 from sandbox.scene.build import build_scene
@@ -68,6 +69,12 @@ class Cell:
             if isinstance(v, float) and not math.isfinite(v):
                 d[k] = None
         return d
+
+
+def _build(spec: SceneSpec):
+    """A new scene; Taichi's field trees of the finished cells are freed first."""
+    runtime.recycle()
+    return build_scene(spec)
 
 
 def _run(scene, case: str, wall_limit_s: float, on_frame=None) -> Cell:
@@ -143,7 +150,7 @@ def stability_matrix(rows, dts, integrators, time_s: float, wall_limit_s: float,
     cells = []
     for preset, factor in rows:
         for integ in integrators:
-            scene = build_scene(matrix_spec(preset, factor, integ, time_s))
+            scene = _build(matrix_spec(preset, factor, integ, time_s))
             for dt in dts:
                 _set_dt(scene, dt)
                 _reset(scene)
@@ -204,7 +211,7 @@ def slivers_case(integrator: str, time_s: float, wall: float, dt_s=None) -> Cell
     spec = _spec(_sheet("slivers", integrator, time_s))
     spec.simulation.dt_s = dt_s
     with _custom_mesh(uv, tris):
-        scene = build_scene(spec)
+        scene = _build(spec)
     c = _run(scene, "slivers (10 µm wide)", wall)
     area = 0.5 * np.abs(np.cross(uv[tris[:, 1]] - uv[tris[:, 0]], uv[tris[:, 2]] - uv[tris[:, 0]]))
     c.extra["min_rest_area_m2"] = float(area.min())
@@ -215,7 +222,7 @@ def crumpled_case(integrator: str, time_s: float, wall: float) -> Cell:
     """Start crumpled to 10 % of the sheet's size (random 1 cm out-of-plane), one corner
     pinned, gravity on."""
     spec = _spec(_sheet("crumpled", integrator, time_s, cloth={"pins": [{"vertices": [0]}]}))
-    scene = build_scene(spec)
+    scene = _build(spec)
     x0 = scene.model.initial_positions_np
     centre = x0.mean(axis=0)
     rng = np.random.default_rng(7)
@@ -239,7 +246,7 @@ def impact_case(integrator: str, time_s: float, wall: float) -> Cell:
         collider=[{"name": "arm", "shape": "cylinder", "center_m": [0, 0, 0], "radius_m": 0.03,
                    "height_m": 0.6, "rotation_deg": [0, 0, 90]}],
     )  # fmt: skip
-    scene = build_scene(_spec(data))
+    scene = _build(_spec(data))
     inside = []
 
     def watch(sc, frame):
@@ -264,7 +271,7 @@ def resize_cases(integrator: str, time_s: float, wall: float, scales=(1.3, 0.7),
         collision={"thickness_m": 0.003},
         collider=[{"name": "ball", "shape": "sphere", "center_m": [0, 0, 0], "radius_m": 0.08}],
     )  # fmt: skip
-    scene = build_scene(_spec(data))
+    scene = _build(_spec(data))
     body = scene.model.colliders[0]
     v0 = body.body_x.to_numpy()[: body.vertex_count].astype(np.float64)
     frames = round(time_s * scene.spec.simulation.frame_rate_hz)
@@ -305,7 +312,7 @@ def seam_gap_case(integrator: str, time_s: float, wall: float) -> Cell:
         "seam": [{"name": "middle", "a": [{"cloth": "left", "edge": 1}],
                   "b": [{"cloth": "right", "edge": 1}]}],
     }  # fmt: skip
-    scene = build_scene(_spec(data))
+    scene = _build(_spec(data))
     c = _run(scene, "seam with a 30 cm gap", wall)
     return c
 
