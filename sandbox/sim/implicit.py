@@ -148,7 +148,8 @@ class ImplicitEulerSolver:
         self.bad_vertex = ti.field(ti.i32, shape=())
         self.self_collider = model.self_collider  # None switches the passes off (sewing)
         self.sc_x = self.sc_v = None  # state-precision copies for a self-collision pass
-        self.pattern = self.factor = None
+        self.pattern = self.factor = self.dx_np = None
+        self._no_dx = np.zeros((1, 3))
         if self.linear_solver == "direct":
             self._init_direct()
         self.reset_watch()
@@ -168,9 +169,7 @@ class ImplicitEulerSolver:
                 self._copy(state_in.x, state_in.v, state_out.x, state_out.v)
             return
         t0 = time.perf_counter()
-        self.h[None] = dt
-        self.gamma[None] = control.damping_per_s[None]
-        self._begin(state_in.x, state_in.v, control.gravity)
+        self._begin(state_in.x, state_in.v, control.gravity, control.damping_per_s, dt)
         self._initial_guess()
         newton = cg_total = 0
         converged = False
@@ -178,12 +177,12 @@ class ImplicitEulerSolver:
         line_search_cuts = 0
         previous = math.inf
         for _ in range(self.max_newton):
-            self._grad_hess()
+            e0 = float(self._grad_hess()[0])
             newton += 1
             cg_total += self._solve()
-            self._post_solve()
-            step_norm = float(self.max_dx[None])
-            tol = self.tol_m_s * dt + self.rel_tol * float(self.max_move[None])
+            direct = self.pattern is not None  # then Δx comes from dx_np
+            step_norm, max_move, slope = self._post_solve(self._dx_source(), direct)
+            tol = self.tol_m_s * dt + self.rel_tol * max_move
             error = newton_error_estimate(step_norm, previous, tol)
             previous = step_norm
             if error <= tol:
@@ -191,9 +190,8 @@ class ImplicitEulerSolver:
                 self._accept()
                 converged = True
                 break
-            line_search_cuts += self._line_search()
-        self._grad_hess()  # residual at the accepted point, for the stats
-        res = float(self.max_res[None])
+            line_search_cuts += self._line_search(e0, slope)
+        res = float(self._grad_hess()[1])  # residual at the accepted point, for the stats
         self._finish(state_out.x, state_out.v, index)
         self.last = {
             "newton_iterations": newton,
@@ -300,7 +298,10 @@ class ImplicitEulerSolver:
         m = self.model
         self.pattern = sparse.BlockPattern(m)
         self.factor = sparse.FactorisedSolver()
-        self.blocks = ti.Matrix.field(3, 3, REAL, shape=self.pattern.max_blocks())
+        # numpy arrays the assembly kernel writes into directly (no copies, no extra launch)
+        self.blocks = np.zeros((self.pattern.max_blocks(), 3, 3))
+        self.grad_np = np.zeros((max(1, m.particle_count), 3))
+        self.dx_np = np.zeros((max(1, m.particle_count), 3))
         self.tri_block = sparse.index_field(self.pattern.tri_block)
         self.hinge_block = sparse.index_field(self.pattern.hinge_block)
         self.diag_block = sparse.index_field(self.pattern.diag_block)
@@ -314,29 +315,30 @@ class ImplicitEulerSolver:
         pad[: len(self.pattern.seam_block)] = self.pattern.seam_block
         self.seam_block.from_numpy(pad)
 
+    def _dx_source(self):
+        return self.dx_np if self.dx_np is not None else self._no_dx
+
     def _solve_direct(self) -> int:
         """Assemble A = M c + H, solve A Δx = −∇E with the (re)used factors."""
         n = self.model.particle_count
         if self.pattern.update():  # seams sewn or cut since the last solve
             self._load_seam_blocks()
             self.factor.invalidate()
-        self._assemble()
-        b = self.pattern.permute(-self.grad.to_numpy()[:n])
-        dx, iterations = self.factor.solve(self.pattern, self.blocks.to_numpy(), b)
-        pad = np.zeros((max(1, n), 3))
-        pad[:n] = self.pattern.unpermute(dx)
-        self.dx.from_numpy(pad)
+        self.blocks.fill(0.0)
+        self._assemble(self.blocks, self.grad_np)
+        b = self.pattern.permute(-self.grad_np[:n])
+        dx, iterations = self.factor.solve(self.pattern, self.blocks, b)
+        self.dx_np[:n] = self.pattern.unpermute(dx)  # _post_solve loads it into self.dx
         return iterations
 
-    def _line_search(self) -> int:
-        """Backtracking on E along Δx (Armijo); returns the number of halvings."""
-        e0 = float(self.energy[None])
-        slope = float(self.slope[None])
+    def _line_search(self, e0: float, slope: float) -> int:
+        """Backtracking on E along Δx from E = ``e0`` with slope ∇E·Δx (Armijo); returns
+        the number of halvings."""
         alpha, cuts = 1.0, 0
         eps = 1e-12 * abs(e0)  # round-off allowance (E, x and the gradient are float64)
         while True:
-            self._trial(alpha)
-            if float(self.energy_t[None]) <= e0 + ARMIJO * alpha * slope + eps or cuts >= 30:
+            e = self._trial(alpha)
+            if e <= e0 + ARMIJO * alpha * slope + eps or cuts >= 30:
                 break
             alpha *= 0.5
             cuts += 1
@@ -349,27 +351,23 @@ class ImplicitEulerSolver:
         x̂ is exact in free flight; x_n + h v_n does not pull a hanging stiff sheet by h² g
         against its pins (a residual 100x smaller in the first Newton iteration).
         """
-        self._trial_gravity(1.0)
-        e_hat = float(self.energy_t[None])
-        self._trial_gravity(0.0)
-        if float(self.energy_t[None]) > e_hat:
+        e_hat = self._trial_gravity(1.0)
+        if self._trial_gravity(0.0) > e_hat:
             self._trial_gravity(1.0)
         self._accept()
 
     def _warm_up(self, state: State, control: Control) -> None:
-        self.h[None] = 1.0
-        self.gamma[None] = 0.0
-        self._begin(state.x, state.v, control.gravity)
+        self._begin(state.x, state.v, control.gravity, control.damping_per_s, 1.0)
         self._trial_gravity(0.0)
         self._grad_hess()
         self._cg_init()
         self._cg_iter()
         self._cg_loop(1, 0.0)
-        self._post_solve()
+        self._post_solve(self._dx_source(), self.pattern is not None)
         self._trial(0.0)
         self._internal_energy_kernel(state.x)
         if self.pattern is not None:
-            self._assemble()
+            self._assemble(self.blocks, self.grad_np)
 
     # ------------------------------------------------------------------ kernels
     @ti.kernel
@@ -380,7 +378,10 @@ class ImplicitEulerSolver:
             vo[i] = vi[i]
 
     @ti.kernel
-    def _begin(self, x_in: ti.template(), v_in: ti.template(), gravity: ti.template()):
+    def _begin(self, x_in: ti.template(), v_in: ti.template(), gravity: ti.template(),
+               damping: ti.template(), dt: ti.f64):  # fmt: skip
+        self.h[None] = dt
+        self.gamma[None] = damping[None]
         h = self.h[None]
         ti.loop_config(serialize=self.serial)
         for i in range(self.model.particle_count):
@@ -444,8 +445,10 @@ class ImplicitEulerSolver:
         self._elastic_energy(x, self.energy_t)
 
     @ti.kernel
-    def _grad_hess(self):
-        """∇E, per-element Hessians, block-Jacobi preconditioner and E at self.x."""
+    def _grad_hess(self) -> ti.types.vector(2, ti.f64):
+        """∇E, per-element Hessians, block-Jacobi preconditioner and E at self.x.
+
+        Returns (E [J], the largest force residual over the vertex weight)."""
         m = self.model
         x = ti.static(self.x)
         self.energy[None] = 0.0
@@ -532,6 +535,7 @@ class ImplicitEulerSolver:
             else:
                 self.grad[i] = ti.Vector.zero(REAL, 3)
                 self.pinv[i] = ti.Matrix.zero(REAL, 3, 3)
+        return ti.Vector([self.energy[None], ti.cast(self.max_res[None], ti.f64)], ti.f64)
 
     @ti.kernel
     def _cg_init(self):
@@ -598,17 +602,15 @@ class ImplicitEulerSolver:
             pap[None] += ti.cast(p[i].dot(y), ti.f64)
 
     @ti.kernel
-    def _assemble(self):
-        """blocks := the 3x3 blocks of M (1/h² + γ/h) + H (pattern of ``self.pattern``).
+    def _assemble(self, blocks: ti.types.ndarray(), grad: ti.types.ndarray()):
+        """blocks (nb, 3, 3) += the 3x3 blocks of M (1/h² + γ/h) + H (pattern of
+        ``self.pattern``; pass zeros) and grad (n, 3) := ∇E.
 
         The same element Hessians as :meth:`_apply`: triangle corners (a, b) couple through
         c_u,a c_u,b H_uu + c_u,a c_v,b H_uv + c_v,a c_u,b H_uvᵀ + c_v,a c_v,b H_vv, hinge
         vertices through E_b g_a g_bᵀ, seam ends through ±S. Pinned vertices get identity.
         """
         m = self.model
-        ti.loop_config(serialize=self.serial)
-        for k in range(self.blocks.shape[0]):
-            self.blocks[k] = ti.Matrix.zero(REAL, 3, 3)
         ti.loop_config(serialize=self.serial)
         for t in range(m.tri_count):
             i = m.tri_indices[t]
@@ -620,7 +622,7 @@ class ImplicitEulerSolver:
                     if m.particle_inv_mass[i[a]] > 0.0 and m.particle_inv_mass[i[b]] > 0.0:
                         blk = cua * (cub * huu + cvb * huv) + cva * (cub * huv.transpose()
                                                                      + cvb * hvv)  # fmt: skip
-                        self.blocks[self.tri_block[t, 3 * a + b]] += blk
+                        self._add_block(blocks, self.tri_block[t, 3 * a + b], blk)
         if ti.static(m.hinge_count > 0):
             ti.loop_config(serialize=self.serial)
             for h in range(m.hinge_count):
@@ -630,9 +632,8 @@ class ImplicitEulerSolver:
                         if m.particle_inv_mass[j[a]] > 0.0 and m.particle_inv_mass[j[b]] > 0.0:
                             ga = self.h_grad[4 * h + a]
                             gb = self.h_grad[4 * h + b]
-                            self.blocks[self.hinge_block[h, 4 * a + b]] += self.h_k[h] * (
-                                ga.outer_product(gb)
-                            )
+                            blk = self.h_k[h] * ga.outer_product(gb)
+                            self._add_block(blocks, self.hinge_block[h, 4 * a + b], blk)
         if ti.static(m.has_seams):
             ti.loop_config(serialize=self.serial)
             for q in range(m.seam_active[None]):
@@ -642,7 +643,7 @@ class ImplicitEulerSolver:
                     for b in ti.static(range(2)):
                         if m.particle_inv_mass[p[a]] > 0.0 and m.particle_inv_mass[p[b]] > 0.0:
                             sign = 1.0 if a == b else -1.0
-                            self.blocks[self.seam_block[q, 2 * a + b]] += sign * s_h
+                            self._add_block(blocks, self.seam_block[q, 2 * a + b], sign * s_h)
         hh = self.h[None]
         c_mass = 1.0 / (hh * hh) + self.gamma[None] / hh
         ti.loop_config(serialize=self.serial)
@@ -650,7 +651,14 @@ class ImplicitEulerSolver:
             d = ti.Matrix.identity(REAL, 3)
             if m.particle_inv_mass[i] > 0.0:
                 d = m.particle_mass[i] * c_mass * ti.Matrix.identity(REAL, 3)
-            self.blocks[self.diag_block[i]] += d
+            self._add_block(blocks, self.diag_block[i], d)
+            for c in ti.static(range(3)):
+                grad[i, c] = self.grad[i][c]
+
+    @ti.func
+    def _add_block(self, blocks: ti.template(), k, blk):
+        for r, c in ti.static(ti.ndrange(3, 3)):
+            blocks[k, r, c] += blk[r, c]
 
     def assembled_matrix(self):
         """The Newton matrix of the last evaluation as scipy CSC (3n x 3n); for tests.
@@ -659,10 +667,11 @@ class ImplicitEulerSolver:
         self.pattern.update()
         if self.seam_block is not None:
             self._load_seam_blocks()
-        self._assemble()
+        self.blocks.fill(0.0)
+        self._assemble(self.blocks, self.grad_np)
         p = self.pattern  # back from the band order to vertex order
         scalar = (3 * p.position[:, None] + np.arange(3)).ravel()
-        return p.matrix(self.blocks.to_numpy())[scalar][:, scalar].tocsc()
+        return p.matrix(self.blocks)[scalar][:, scalar].tocsc()
 
     @ti.kernel
     def _apply_kernel(self):
@@ -716,18 +725,28 @@ class ImplicitEulerSolver:
                 self.p[i] = self.z[i] + self.beta[None] * self.p[i]
 
     @ti.kernel
-    def _post_solve(self):
+    def _post_solve(self, dx_in: ti.types.ndarray(), load: ti.template()) -> ti.types.vector(
+        3, ti.f64
+    ):
+        """(max|Δx| [m], max|x − x_n| [m], ∇E·Δx [J]) after a solve; with ``load``, Δx is
+        first read from ``dx_in`` (n, 3) (the direct solver's numpy result)."""
         self.max_dx[None] = 0.0
         self.max_move[None] = 0.0
         self.slope[None] = 0.0
         ti.loop_config(serialize=self.serial)
         for i in range(self.model.particle_count):
+            if ti.static(load):
+                self.dx[i] = ti.Vector([dx_in[i, 0], dx_in[i, 1], dx_in[i, 2]], REAL)
             ti.atomic_max(self.max_dx[None], self.dx[i].norm())
             ti.atomic_max(self.max_move[None], (self.x[i] - self.x0[i]).norm())
             self.slope[None] += ti.cast(self.grad[i].dot(self.dx[i]), ti.f64)
+        dx_max = ti.cast(self.max_dx[None], ti.f64)
+        move_max = ti.cast(self.max_move[None], ti.f64)
+        return ti.Vector([dx_max, move_max, self.slope[None]], ti.f64)
 
     @ti.kernel
-    def _trial(self, alpha: float):
+    def _trial(self, alpha: float) -> ti.f64:
+        """xt = x + α Δx; returns E(xt) [J]."""
         ti.loop_config(serialize=self.serial)
         for i in range(self.model.particle_count):
             self.xt[i] = self.x[i] + alpha * self.dx[i]
@@ -736,9 +755,10 @@ class ImplicitEulerSolver:
         ti.loop_config(serialize=self.serial)
         for i in range(self.model.particle_count):
             self.energy_t[None] += ti.cast(self._inertia(i, self.xt[i]), ti.f64)
+        return self.energy_t[None]
 
     @ti.kernel
-    def _trial_gravity(self, w: float):
+    def _trial_gravity(self, w: float) -> ti.f64:
         """xt = x_n + h v_n + w (x̂ − x_n − h v_n) on free vertices (dx holds h v_n)."""
         ti.loop_config(serialize=self.serial)
         for i in range(self.model.particle_count):
@@ -750,6 +770,7 @@ class ImplicitEulerSolver:
         ti.loop_config(serialize=self.serial)
         for i in range(self.model.particle_count):
             self.energy_t[None] += ti.cast(self._inertia(i, self.xt[i]), ti.f64)
+        return self.energy_t[None]
 
     @ti.kernel
     def _accept(self):

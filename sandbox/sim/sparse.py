@@ -32,6 +32,7 @@ import scipy.linalg as sl
 import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 import taichi as ti
+from scipy.linalg.blas import dsbmv as sbmv
 from scipy.sparse.csgraph import reverse_cuthill_mckee
 
 
@@ -138,7 +139,7 @@ BANDED_FLOPS = 3e7
 
 
 class FactorisedSolver:
-    """Solve A Δx = b with a (possibly stale) LU factorisation of A, as described above.
+    """Solve A Δx = b with a (possibly stale) factorisation of A, as described above.
 
     Args:
         refactor_after: CG iterations preconditioned by the old factors after which the
@@ -149,41 +150,53 @@ class FactorisedSolver:
     def __init__(self, refactor_after: int = 8, rtol: float = 1e-3):
         self.refactor_after = int(refactor_after)
         self.rtol = float(rtol)
-        self.lu = None
+        self.factors = None  # (kind, factors): ("band", c) or ("lu", SuperLU object)
         self.factorisations = 0
 
     def invalidate(self) -> None:
-        self.lu = None
+        self.factors = None
 
     def solve(self, pattern: BlockPattern, blocks: np.ndarray, b: np.ndarray):
         """(Δx, iterations) for A Δx = b, A from the block values (nb, 3, 3) and b in the
         pattern's order; 1 iteration when A was factorised for this solve.
 
         A narrow band (cost N·bw² <= ``BANDED_FLOPS``, e.g. a strip) is factorised by banded
-        Cholesky every time (LAPACK pbtrf: well under a millisecond); a wide one by SuperLU,
-        reused as the preconditioner of CG for later systems while it works.
+        Cholesky (LAPACK pbtrf; 2 ms for the 1.4k-unknown cantilever), a wide one by SuperLU.
+        Either is kept and preconditions CG on the next systems while that converges within
+        ``refactor_after`` iterations.
         """
-        if pattern.banded_cost() <= BANDED_FLOPS:
-            try:
-                c = sl.cholesky_banded(pattern.banded(blocks), check_finite=False)
-                self.factorisations += 1
-                return sl.cho_solve_banded((c, False), b, check_finite=False), 1
-            except np.linalg.LinAlgError:  # not positive definite after all: LU below
-                pass
-        a = pattern.matrix(blocks)
-        if self.lu is not None:
-            x, k, ok = self._pcg(a, b)
+        kind = "band" if pattern.banded_cost() <= BANDED_FLOPS else "lu"
+        if kind == "band":
+            ab = pattern.banded(blocks)
+            matvec = lambda v: sbmv(pattern.bandwidth, 1.0, ab, v)  # noqa: E731
+        else:
+            a = pattern.matrix(blocks)
+            matvec = a.dot
+        if self.factors is not None and self.factors[0] == kind == "lu":  # (band: cheap)
+            x, k, ok = self._pcg(matvec, b)
             if ok:
                 return x, k
-        # A is symmetric positive definite: no pivoting needed, and pivoting for size
-        # (SuperLU's default) wrecks the fill-reducing order when stiffnesses span decades
-        # (0.57 s instead of ~10 ms for a 2.6k-unknown garment with seams)
-        self.lu = spl.splu(a, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                           options={"SymmetricMode": True})  # fmt: skip
+        if kind == "band":
+            try:
+                self.factors = ("band", sl.cholesky_banded(ab, check_finite=False))
+            except np.linalg.LinAlgError:  # not positive definite after all: LU
+                kind, a = "lu", pattern.matrix(blocks)
+        if kind == "lu":
+            # A is symmetric positive definite: no pivoting needed, and pivoting for size
+            # (SuperLU's default) wrecks the fill-reducing order when stiffnesses span
+            # decades (0.57 s instead of 41 ms for a 2.6k-unknown garment with seams)
+            self.factors = ("lu", spl.splu(a, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                                           options={"SymmetricMode": True}))  # fmt: skip
         self.factorisations += 1
-        return self.lu.solve(b), 1
+        return self._apply_inverse(b), 1
 
-    def _pcg(self, a, b):
+    def _apply_inverse(self, r: np.ndarray) -> np.ndarray:
+        kind, f = self.factors
+        if kind == "band":
+            return sl.cho_solve_banded((f, False), r, check_finite=False)
+        return f.solve(r)
+
+    def _pcg(self, matvec, b):
         """CG on A x = b preconditioned by the stored factors; (x, iterations, converged)."""
         bb = float(b @ b)
         x = np.zeros_like(b)
@@ -191,11 +204,11 @@ class FactorisedSolver:
             return x, 0, True
         target = self.rtol * self.rtol * bb
         r = b.copy()
-        z = self.lu.solve(r)
+        z = self._apply_inverse(r)
         p = z.copy()
         rz = float(r @ z)
         for k in range(1, self.refactor_after + 1):
-            ap = a @ p
+            ap = matvec(p)
             pap = float(p @ ap)
             if not pap > 0.0:
                 return x, k, False
@@ -204,7 +217,7 @@ class FactorisedSolver:
             r -= alpha * ap
             if float(r @ r) <= target:
                 return x, k, True
-            z = self.lu.solve(r)
+            z = self._apply_inverse(r)
             rz_new = float(r @ z)
             p = z + (rz_new / rz) * p
             rz = rz_new
