@@ -812,8 +812,14 @@ class ImplicitEulerSolver:
             v = ti.Vector.zero(REAL, 3)
             if m.particle_inv_mass[i] > 0.0:
                 v = (self.x[i] - self.x0[i]) / h
-                for c in ti.static(m.colliders):
-                    v = c.respond(self.x0[i], v, h)
+                if ti.static(len(m.colliders) > 0):
+                    # the colliders work in the state's precision (as in the explicit solver)
+                    xs = ti.cast(self.x0[i], float)
+                    vs = ti.cast(v, float)
+                    hs = ti.cast(h, float)
+                    for c in ti.static(m.colliders):
+                        vs = c.respond(xs, vs, hs)
+                    v = ti.cast(vs, REAL)
             self.vel[i] = v
 
     @ti.kernel
