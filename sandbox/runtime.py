@@ -23,7 +23,7 @@ MAX_SNODE_TREES = 512
 then written before the next one is allocated becomes a tree of its own, and trees are
 never freed while the runtime lives: a process that builds many scenes (the report, the
 test suite) ran out and crashed inside Taichi (a segmentation fault, no message)."""
-RECYCLE_AT = 320
+RECYCLE_AT = 160
 
 
 def init(arch: str = "cpu", *, float64: bool = False, debug: bool = False) -> None:
