@@ -308,11 +308,19 @@ class ImplicitEulerSolver:
         self.seam_block = None
         if m.has_seams:
             self.seam_block = ti.field(ti.i32, shape=(m.seam_capacity, 4))
-            self._load_seam_blocks()
+        self._load_block_indices()
 
-    def _load_seam_blocks(self) -> None:
+    def _load_block_indices(self) -> None:
+        """Load the pattern's block indices after a change (the vertex order changes too)."""
+        p = self.pattern
+        for field, index in ((self.tri_block, p.tri_block), (self.hinge_block, p.hinge_block),
+                             (self.diag_block, p.diag_block)):  # fmt: skip
+            if len(index):
+                field.from_numpy(np.ascontiguousarray(index, dtype=np.int32))
+        if self.seam_block is None:
+            return
         pad = np.zeros((self.model.seam_capacity, 4), np.int32)
-        pad[: len(self.pattern.seam_block)] = self.pattern.seam_block
+        pad[: len(p.seam_block)] = p.seam_block
         self.seam_block.from_numpy(pad)
 
     def _dx_source(self):
@@ -322,7 +330,7 @@ class ImplicitEulerSolver:
         """Assemble A = M c + H, solve A Δx = −∇E with the (re)used factors."""
         n = self.model.particle_count
         if self.pattern.update():  # seams sewn or cut since the last solve
-            self._load_seam_blocks()
+            self._load_block_indices()
             self.factor.invalidate()
         self.blocks.fill(0.0)
         self._assemble(self.blocks, self.grad_np)
@@ -664,9 +672,8 @@ class ImplicitEulerSolver:
         """The Newton matrix of the last evaluation as scipy CSC (3n x 3n); for tests.
 
         Only with ``linear_solver="direct"``."""
-        self.pattern.update()
-        if self.seam_block is not None:
-            self._load_seam_blocks()
+        if self.pattern.update():
+            self._load_block_indices()
         self.blocks.fill(0.0)
         self._assemble(self.blocks, self.grad_np)
         p = self.pattern  # back from the band order to vertex order
