@@ -323,6 +323,11 @@ class ImplicitEulerSolver:
         pad[: len(p.seam_block)] = p.seam_block
         self.seam_block.from_numpy(pad)
 
+    def _assemble_into_numpy(self) -> None:
+        """blocks := A's 3x3 blocks and grad_np := ∇E at the current iterate (numpy)."""
+        self.blocks.fill(0.0)
+        self._assemble(self.blocks, self.grad_np)
+
     def _dx_source(self):
         return self.dx_np if self.dx_np is not None else self._no_dx
 
@@ -332,8 +337,7 @@ class ImplicitEulerSolver:
         if self.pattern.update():  # seams sewn or cut since the last solve
             self._load_block_indices()
             self.factor.invalidate()
-        self.blocks.fill(0.0)
-        self._assemble(self.blocks, self.grad_np)
+        self._assemble_into_numpy()
         b = self.pattern.permute(-self.grad_np[:n])
         dx, iterations = self.factor.solve(self.pattern, self.blocks, b)
         self.dx_np[:n] = self.pattern.unpermute(dx)  # _post_solve loads it into self.dx
@@ -674,8 +678,7 @@ class ImplicitEulerSolver:
         Only with ``linear_solver="direct"``."""
         if self.pattern.update():
             self._load_block_indices()
-        self.blocks.fill(0.0)
-        self._assemble(self.blocks, self.grad_np)
+        self._assemble_into_numpy()
         p = self.pattern  # back from the band order to vertex order
         scalar = (3 * p.position[:, None] + np.arange(3)).ravel()
         return p.matrix(self.blocks)[scalar][:, scalar].tocsc()

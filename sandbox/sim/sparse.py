@@ -1,4 +1,4 @@
-"""The implicit solver's Newton matrix, assembled, and its sparse LU factorisation.
+"""The implicit solver's Newton matrix, assembled, and its sparse factorisation.
 
 Conjugate gradients with a block-Jacobi preconditioner needs on the order of √κ matrix
 products per Newton iteration, and κ ≈ (h·ω_max)² grows with the step h: at h = 1/60 s on a
@@ -8,21 +8,22 @@ A direct factorisation does not care about κ. Here the matrix
     A = M (1/h² + γ/h) + H      (3n x 3n, symmetric positive definite)
 
 is assembled in 3x3 blocks from the same per-element Hessians the CG product uses
-(triangles 3x3 corners, hinges 4x4, seams 2x2, the mass on the diagonal), factorised with
-SuperLU (``scipy.sparse.linalg.splu``, minimum-degree ordering on A + Aᵀ), and used two ways:
+(triangles 3x3 corners, hinges 4x4, seams 2x2, the mass on the diagonal), with the
+vertices in reverse Cuthill-McKee order, and factorised one of two ways:
 
-* right after a factorisation, the solve is exact (one "iteration");
-* later Newton iterations and steps keep the factorisation as the preconditioner of CG on
-  the new matrix: while the matrix changes little, CG converges in a few iterations, each a
-  sparse product and two triangular solves in scipy. When it needs more than
-  ``refactor_after`` iterations, the matrix is factorised again and the solve is exact.
+* a narrow band (N·bw² <= ``BANDED_FLOPS``, e.g. a strip): banded Cholesky (LAPACK pbtrf)
+  for every system, each solve exact (one "iteration");
+* a wide band (garments): SuperLU without pivoting (``scipy.sparse.linalg.splu``,
+  minimum-degree ordering on A + Aᵀ). Later systems keep the factors as the preconditioner
+  of CG on the new matrix while it converges within ``refactor_after`` iterations; then the
+  matrix is factorised again and the solve is exact.
 
 The block pattern (which vertex pairs share an element) is fixed by the mesh; seams sewn
 live change it, which :meth:`BlockPattern.update` notices through ``model.seam_version``.
 Pinned vertices keep an identity block and no coupling, so their Δx is 0.
 
-Sizes (measured, 2-core CPU): factorising takes 6 ms at 1.4k unknowns, 150 ms at 15k and
-330 ms at 30k; a solve with the factors is 0.4, 6 and 12 ms.
+SuperLU sizes (a grid sheet, 2-core CPU): factorising takes 6 ms at 1.4k unknowns, 150 ms
+at 15k and 330 ms at 30k; a solve with the factors is 0.4, 6 and 12 ms.
 """
 
 from __future__ import annotations
