@@ -3,11 +3,13 @@
 Usage: python benchmarks/bench_gui.py [--garment sheath-dress] [--edge-cm 1.5] [--frames 40]
 
 A real GGUI window when $DISPLAY is set (run it under Xvfb), else off-screen GGUI (the same
-Renderer), float32 on the CPU. A frame = the
-window's frame budget of simulation (``--budget`` s of solver.advance, whole 1/30 s frames,
-at least one) + drawing + reading the image back. Slider latency = resizing the mannequin
-(§2.1.4) + moving the collider + drawing the next frame. Target (issue 6): >= 30 fps with a
-5k-vertex garment simulating; a slider change shows within 100 ms.
+Renderer), float32 on the CPU. With a window, the frame rate is that of the real window loop
+(``run_window``: events, the side panel with its sliders, simulation, drawing, show) for
+``--frames`` frames; the simulation gets what is left of 1/30 s after the rest (or
+``--budget`` s if given). Off-screen, the same loop is drawing + reading the image back.
+Slider latency = resizing the mannequin (§2.1.4) + moving the collider + drawing the next
+frame. Target (issue 6): >= 30 fps with a 5k-vertex garment simulating; a slider change
+shows within 100 ms.
 """
 
 import argparse
@@ -24,10 +26,15 @@ def main() -> None:
     ap.add_argument("--edge-cm", type=float, default=1.5)
     ap.add_argument("--frames", type=int, default=40)
     ap.add_argument("--size", type=int, nargs=2, default=[1024, 768])
-    ap.add_argument("--budget", type=float, default=0.025, help="simulation wall time per frame")
+    ap.add_argument(
+        "--budget",
+        type=float,
+        default=None,
+        help="fixed simulation wall time per frame [s] (default: what 30 fps leaves)",
+    )
     args = ap.parse_args()
     from sandbox import runtime
-    from sandbox.app.gui import Renderer
+    from sandbox.app.gui import Renderer, run_window
     from sandbox.app.session import Session
 
     runtime.init("cpu")
@@ -45,6 +52,8 @@ def main() -> None:
 
     s.run_frames(1)
     r.image()  # compile and warm up
+    s.resize(bust_girth=94.0)
+    r.image()
     n = s.model.particle_count
     sim, draw = [], []
     for _ in range(args.frames):
@@ -55,20 +64,32 @@ def main() -> None:
         draw.append(time.perf_counter() - t1)
         sim.append(t1 - t0)
     sim, draw = np.array(sim), np.array(draw)
-    # the window's loop: a wall budget of simulation per displayed frame, then drawing
-    loop = []
-    for _ in range(args.frames):
-        t0 = time.perf_counter()
-        s.run_for(args.budget)
-        present()
-        loop.append(time.perf_counter() - t0)
-    loop = np.array(loop)
     resize = []
-    for bust in (92.0, 96.0, 100.0, 94.0, 88.0):
+    for _ in range(3):  # back to the window's own path (draw + show) before timing it
+        present()
+    for bust in (96.0, 92.0, 100.0, 94.0, 88.0, 97.0, 91.0):
         t0 = time.perf_counter()
-        s.set_measurements(bust_girth=bust)
+        s.resize(bust_girth=bust)  # as the window's slider does
         present()
         resize.append(time.perf_counter() - t0)
+    # the window's loop: simulation for what the frame budget leaves, then drawing
+    if windowed:
+        r.window.destroy()  # one GGUI window at a time: run_window opens its own
+        loop_stats = run_window(s, size=tuple(args.size), frame_budget_s=args.budget,
+                                max_frames=args.frames)  # fmt: skip
+        loop_fps = loop_stats["fps"]
+        steps_per_frame = loop_stats["sim_steps"] / max(1, loop_stats["frames"])
+    else:
+        other, loop, steps0 = 0.0, [], s.steps_taken
+        for _ in range(args.frames):
+            t0 = time.perf_counter()
+            budget = args.budget if args.budget is not None else max(0.004, 1 / 30 - other)
+            s.run_for(budget)
+            present()
+            loop.append(time.perf_counter() - t0)
+            other = 0.8 * other + 0.2 * (loop[-1] - s.last_run_s)
+        loop_fps = 1.0 / np.median(loop)
+        steps_per_frame = (s.steps_taken - steps0) / args.frames
     w, h = args.size
     where = f"a window on {os.environ['DISPLAY']}" if windowed else "off-screen GGUI"
     print(f"machine: {platform.machine()}, {os.cpu_count()} cores, Python "
@@ -82,11 +103,12 @@ def main() -> None:
     both, alone = 1.0 / np.median(sim + draw), 1.0 / np.median(draw)
     print(f"display fps with one simulated frame per display frame: {both:.1f}; "
           f"drawing alone: {alone:.1f} fps")  # fmt: skip
-    print(
-        f"window loop ({1e3 * args.budget:.0f} ms of simulation + draw + show): "
-        f"{1.0 / np.median(loop):.1f} fps"
-    )
+    what = "adaptive" if args.budget is None else f"{1e3 * args.budget:.0f} ms"
+    print(f"window loop (simulation budget {what}, panel, draw, show): {loop_fps:.1f} fps, "
+          f"{steps_per_frame:.1f} steps per displayed frame "
+          f"(simulated {steps_per_frame * s.scene.dt_s * loop_fps:.3f} s per wall s)")  # fmt: skip
     print(f"real-time factor of the simulation: {(1 / 30) / np.median(sim):.2f}")
+    print("slider changes [ms]:", " ".join(f"{1e3 * t:.0f}" for t in resize))
     print(f"slider change to a new frame: {1e3 * np.median(resize):.0f} ms median, "
           f"{1e3 * max(resize):.0f} ms max")  # fmt: skip
 

@@ -69,6 +69,22 @@ def test_the_bust_slider_resizes_the_body_and_the_collider(session):
     session.set_measurements(bust_girth=before)
 
 
+def test_the_body_drawn_follows_the_slider_with_outward_unit_normals(session):
+    from sandbox.app.gui import vertex_normals
+
+    before = session.mannequin
+    body = session.resize(hip_girth=before.measure()["hip_girth"] + 6.0)
+    assert body is session.mannequin and body is not before  # the renderer re-uploads it
+    n = vertex_normals(body.vertices, body.triangles)
+    np.testing.assert_allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-5)
+    v, t = body.vertices, body.triangles
+    face_n = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])
+    assert np.mean(np.sum(face_n * n[t].sum(axis=1), axis=1) > 0) > 0.99  # as the faces
+    volume = np.sum(v[t[:, 0]] * np.cross(v[t[:, 1]], v[t[:, 2]])) / 6.0
+    assert volume > 0  # and the faces point outwards
+    session.resize(hip_girth=before.measure()["hip_girth"])
+
+
 def test_saved_pattern_holds_the_seams_sewn_here(session, tmp_path):
     from sandbox.pattern.spec import load_pattern
 

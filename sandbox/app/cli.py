@@ -33,6 +33,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", type=Path, default=Path("out/gui"), help="output directory")
     p.add_argument("--width", type=int, default=1024)
     p.add_argument("--height", type=int, default=768)
+    p.add_argument("--fps", type=float, default=30.0,
+                   help="target display rate: the simulation gets what is left of each "
+                   "frame (default 30)")  # fmt: skip
+    p.add_argument(
+        "--sim-ms",
+        type=float,
+        default=None,
+        help="fixed simulation wall time per displayed frame [ms] instead",
+    )
     p.add_argument("--max-frames", type=int, default=None, help=argparse.SUPPRESS)
     p.add_argument("--status", type=Path, default=None, help=argparse.SUPPRESS)
     p.add_argument("--arch", default="cpu", help="Taichi arch (default cpu)")
@@ -66,7 +75,11 @@ def main(argv: list[str] | None = None) -> int:
             return 0
         from sandbox.app.gui import run_window
 
-        run_window(session, size=(args.width, args.height), max_frames=args.max_frames,
+        if not args.fps > 0 or (args.sim_ms is not None and not args.sim_ms > 0):
+            raise SandboxError("--fps and --sim-ms must be positive")
+        budget = None if args.sim_ms is None else args.sim_ms / 1000.0
+        run_window(session, size=(args.width, args.height), target_fps=args.fps,
+                   frame_budget_s=budget, max_frames=args.max_frames,
                    status_path=args.status)  # fmt: skip
         return 0
     except SandboxError as exc:

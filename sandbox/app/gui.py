@@ -41,6 +41,11 @@ CLOTH_COLOUR = (0.23, 0.42, 0.78)
 SEAM_COLOUR = (0.9, 0.2, 0.1)
 PICK_COLOUR = (0.1, 0.75, 0.2)
 FOV_DEG = 45.0
+TARGET_FPS = 30.0
+SEAM_SHOWN_M = 0.002
+"""Seam springs longer than this [m] are drawn as lines (closed ones would not show)."""
+MIN_SIM_BUDGET_S = 0.004
+"""The least simulation wall time per displayed frame (one step at least is always run)."""
 
 
 class Renderer:
@@ -66,6 +71,8 @@ class Renderer:
         self.camera.fov(FOV_DEG)
         m, body = session.model, session.mannequin
         self.body_x = ti.Vector.field(3, ti.f32, shape=len(body.vertices))
+        self.body_n = ti.Vector.field(3, ti.f32, shape=len(body.vertices))
+        self._body_drawn = None  # the Mannequin whose vertices and normals are uploaded
         self.body_i = ti.field(ti.i32, shape=body.triangles.size)
         self.body_i.from_numpy(body.triangles.astype(np.int32).ravel())
         self.cloth_x = ti.Vector.field(3, ti.f32, shape=m.particle_count)
@@ -79,7 +86,11 @@ class Renderer:
     # ------------------------------------------------------------------ drawing
     def draw(self) -> None:
         s = self.session
-        self.body_x.from_numpy(s.mannequin.vertices.astype(np.float32))
+        body = s.mannequin
+        if body is not self._body_drawn:  # a new body (a slider moved): upload it
+            self.body_x.from_numpy(body.vertices.astype(np.float32))
+            self.body_n.from_numpy(vertex_normals(body.vertices, body.triangles))
+            self._body_drawn = body
         x = s.positions().astype(np.float32)
         self.cloth_x.from_numpy(x)
         sc = self.scene
@@ -87,14 +98,18 @@ class Renderer:
         sc.ambient_light((0.45, 0.45, 0.45))
         sc.point_light(pos=(1.5, 3.0, 3.0), color=(0.7, 0.7, 0.7))
         sc.point_light(pos=(-2.0, 2.0, -2.0), color=(0.3, 0.3, 0.3))
-        sc.mesh(self.body_x, indices=self.body_i, color=BODY_COLOUR)
+        # the body's normals are given: GGUI would recompute them every frame
+        sc.mesh(self.body_x, indices=self.body_i, normals=self.body_n, color=BODY_COLOUR)
         sc.mesh(self.cloth_x, indices=self.cloth_i, color=CLOTH_COLOUR, two_sided=True)
         m = s.model
-        if m.seam_count:
-            seg = np.zeros((self.seam_x.shape[0], 3), np.float32)
-            seg[: 2 * m.seam_count] = x[m.seam_pairs_np].reshape(-1, 3)
-            self.seam_x.from_numpy(seg)
-            sc.lines(self.seam_x, width=2.0, color=SEAM_COLOUR, vertex_count=2 * m.seam_count)
+        if m.seam_count:  # the open seams: springs longer than SEAM_SHOWN_M
+            ends = x[m.seam_pairs_np[: m.seam_count]]
+            ends = ends[np.linalg.norm(ends[:, 0] - ends[:, 1], axis=1) > SEAM_SHOWN_M]
+            if len(ends):
+                seg = np.zeros((self.seam_x.shape[0], 3), np.float32)
+                seg[: 2 * len(ends)] = ends.reshape(-1, 3)
+                self.seam_x.from_numpy(seg)
+                sc.lines(self.seam_x, width=2.0, color=SEAM_COLOUR, vertex_count=2 * len(ends))
         if self.picked:
             pts = []
             for name, k, idx in s.edges:
@@ -237,15 +252,34 @@ class Sewing:
         self.renderer.picked = []
 
 
+def vertex_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Unit vertex normals (n, 3) float32: the area-weighted mean of the faces' normals."""
+    v = np.asarray(vertices, np.float64)
+    t = np.asarray(triangles)
+    fn = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])  # |fn| = 2 area
+    n = np.stack([np.bincount(t.ravel(), np.repeat(fn[:, k], 3), len(v)) for k in range(3)], 1)
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
+    return n.astype(np.float32)
+
+
 def _sides(side) -> str:
     return " + ".join(f"{p}[{e}]" for p, e in side)
 
 
-def run_window(session: Session, *, size=(1024, 768), frame_budget_s: float = 0.025,
-               max_frames: int | None = None, status_path=None) -> None:  # fmt: skip
-    """The interactive window. ``max_frames`` and ``status_path`` (a JSON file rewritten
-    atomically each frame with the body's measurements, the seams and the HUD values) are
-    for automated runs under Xvfb."""
+def run_window(session: Session, *, size=(1024, 768), target_fps: float = TARGET_FPS,
+               frame_budget_s: float | None = None, max_frames: int | None = None,
+               status_path=None) -> dict:  # fmt: skip
+    """The interactive window; returns ``{"frames", "wall_s", "fps", "sim_steps"}`` (the
+    rate and steps counted after the first frame, which compiles and opens the window).
+
+    Each displayed frame runs the events, the side panel, simulation, then draws. The
+    simulation's wall time per frame is ``frame_budget_s`` if given, else what is left of
+    1/``target_fps`` after the rest of the last frames (at least :data:`MIN_SIM_BUDGET_S`):
+    the window stays responsive at the target rate and the cloth gets the remaining time.
+    ``max_frames`` and ``status_path`` (a JSON file rewritten atomically each frame with
+    the body's measurements, the seams and the HUD values) are for automated runs under
+    Xvfb.
+    """
     from sandbox.atomic import write_json
     from sandbox.mannequin.measurements import KEYS
     from sandbox.sim.materials import list_presets
@@ -258,19 +292,29 @@ def run_window(session: Session, *, size=(1024, 768), frame_budget_s: float = 0.
     sew_mode, fps, frame, shots = True, 0.0, 0, 0
     presets = list_presets()
     dragging = None
+    other_s = 0.0  # EMA of a frame's wall time outside the simulation [s]
+    steps0, start = session.steps_taken, time.perf_counter()
     while r.window.running and (max_frames is None or frame < max_frames):
         t0 = time.perf_counter()
+        budget = frame_budget_s
+        if budget is None:
+            budget = max(MIN_SIM_BUDGET_S, 1.0 / target_fps - other_s)
         try:
             r, sewing, sew_mode, dragging, shots, values, applied = _frame(
                 session, r, sewing, sew_mode, dragging, shots, values, applied, size,
-                presets, fps, frame_budget_s)  # fmt: skip
+                presets, fps, budget)  # fmt: skip
         except SandboxError as exc:  # a refused action: say it in the HUD, keep running
             session.message = str(exc)
             applied = dict(values)
         r.draw()
         r.window.show()
         frame += 1
-        fps = 0.9 * fps + 0.1 / max(time.perf_counter() - t0, 1e-6)
+        wall = max(time.perf_counter() - t0, 1e-6)
+        sim = session.last_run_s if session.playing else 0.0
+        other_s = wall - sim if frame == 1 else 0.8 * other_s + 0.2 * (wall - sim)
+        fps = 0.9 * fps + 0.1 / wall
+        if frame == 1:
+            steps0, start = session.steps_taken, time.perf_counter()
         if status_path is not None:
             write_json(status_path, {"frame": frame, "fps": fps,
                                      "measurements": session.mannequin.measure(),
@@ -280,6 +324,10 @@ def run_window(session: Session, *, size=(1024, 768), frame_budget_s: float = 0.
                                      "message": session.message,
                                      "edge_screen": {f"{p}:{k}": r.screen_of(p, k)
                                                      for p, k, _ in session.edges}})  # fmt: skip
+    wall = time.perf_counter() - start
+    counted = max(0, frame - 1)
+    return {"frames": counted, "wall_s": wall, "fps": counted / wall if wall > 0 else 0.0,
+            "sim_steps": session.steps_taken - steps0}  # fmt: skip
 
 
 def _frame(session, r, sewing, sew_mode, dragging, shots, values, applied, size, presets, fps,
@@ -376,7 +424,7 @@ def _frame(session, r, sewing, sew_mode, dragging, shots, values, applied, size,
         gui.text(session.message[:60])
     changed = {k: v for k, v in values.items() if abs(v - applied[k]) > 0.05}
     if changed:
-        session.set_measurements(**changed)
+        session.resize(**changed)
         applied.update(changed)
     if session.playing:
         session.run_for(frame_budget_s)

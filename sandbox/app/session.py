@@ -24,6 +24,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import taichi as ti
 
 from sandbox.errors import SandboxError
 
@@ -92,6 +93,9 @@ class Session:
         self._ramp: list[float] = []
         self._frame_steps = 0
         self._frame_x0 = None
+        self._step_s = 0.0  # measured wall time per step [s] (run_for's chunks)
+        self.steps_taken = 0  # steps run by run_for and run_frames
+        self.last_run_s = 0.0  # wall time of the last run_for [s]
         self._springs: list[tuple] = []
         self._seam_k: list[np.ndarray] = []
         self.message = ""
@@ -289,8 +293,8 @@ class Session:
         return save_pattern(self.pattern_with_seams(), path)
 
     # ------------------------------------------------------------------ mannequin
-    def set_measurements(self, **cm: float) -> dict[str, float]:
-        """Resize the mannequin (§2.1.4) to these measurements [cm]; returns the new tape.
+    def resize(self, **cm: float):
+        """Resize the mannequin (§2.1.4) to these measurements [cm]; returns the new body.
 
         Keys: ``bust_girth``, ``waist_girth``, ``hip_girth``, ``shoulder_width``,
         ``back_width``, ``shoulder_length``, ``back_length``; the others keep their values.
@@ -312,7 +316,12 @@ class Session:
         self.mannequin = body
         self.measurements = merged
         self.message = ", ".join(f"{k} {v:g} cm" for k, v in cm.items())
-        return body.measure()
+        return body
+
+    def set_measurements(self, **cm: float) -> dict[str, float]:
+        """:meth:`resize`, then the tape measure on the new body [cm] (about 13 ms, which
+        the window's sliders skip)."""
+        return self.resize(**cm).measure()
 
     # ------------------------------------------------------------------ simulation
     def run_frames(self, frames: int = 1) -> FrameStats:
@@ -323,12 +332,14 @@ class Session:
             if self._frame_steps:  # finish a frame the window's budget left open
                 sc.solver.advance(self.state, sc.control, sc.dt_s,
                                   sc.steps_per_frame - self._frame_steps)  # fmt: skip
+                self.steps_taken += sc.steps_per_frame - self._frame_steps
                 self._frame_steps = 0
                 self._finish_frame(self._frame_x0, time.perf_counter() - t0)
                 continue
             self._stiffen()
             x0 = self.positions()
             sc.solver.advance(self.state, sc.control, sc.dt_s, sc.steps_per_frame)
+            self.steps_taken += sc.steps_per_frame
             self._finish_frame(x0, time.perf_counter() - t0)
         return self.stats
 
@@ -338,11 +349,14 @@ class Session:
         self.scene.control.gravity[None] = self._gravity if on else (0.0, 0.0, 0.0)
         self.message = f"gravity {'on' if on else 'off'}"
 
-    def run_for(self, budget_s: float, chunk_steps: int = 8) -> int:
-        """Simulate for about ``budget_s`` of wall time in chunks of steps (the window's
-        frame budget, so drawing keeps its rate when a whole 1/30 s frame takes longer);
-        the HUD's stats are updated each time a whole frame's steps are done. Returns the
-        steps taken."""
+    def run_for(self, budget_s: float) -> int:
+        """Simulate for about ``budget_s`` of wall time (the window's frame budget, so
+        drawing keeps its rate when a whole 1/30 s frame takes longer); at least one step.
+
+        The steps go in chunks sized from the measured time per step, so the budget is not
+        overshot by more than about one step. The HUD's stats are updated each time a whole
+        frame's steps are done. Returns the steps taken.
+        """
         sc = self.scene
         t0 = time.perf_counter()
         done = 0
@@ -350,14 +364,22 @@ class Session:
             if self._frame_steps == 0:
                 self._stiffen()
                 self._frame_x0 = self.positions()
-            k = min(chunk_steps, sc.steps_per_frame - self._frame_steps)
+            k = sc.steps_per_frame - self._frame_steps
+            left = budget_s - (time.perf_counter() - t0)
+            k = min(k, max(1, int(left / self._step_s))) if self._step_s else 1
+            t1 = time.perf_counter()
             sc.solver.advance(self.state, sc.control, sc.dt_s, k)
+            ti.sync()
+            per_step = (time.perf_counter() - t1) / k
+            self._step_s = per_step if not self._step_s else 0.7 * self._step_s + 0.3 * per_step
             done += k
             self._frame_steps += k
             if self._frame_steps >= sc.steps_per_frame:
                 self._frame_steps = 0
                 self._finish_frame(self._frame_x0, time.perf_counter() - t0)
-            if time.perf_counter() - t0 >= budget_s:
+            if time.perf_counter() - t0 + 0.5 * self._step_s >= budget_s:
+                self.steps_taken += done
+                self.last_run_s = time.perf_counter() - t0
                 return done
 
     def _finish_frame(self, x0: np.ndarray, wall_s: float) -> None:
