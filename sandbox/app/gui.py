@@ -19,8 +19,9 @@ Esc                    quit (nothing is left half-written)
 
 The side panel has the seven measurement sliders (cm, within the supported range), size
 presets, play/pause, step, reset, "sew pattern seams", undo, clear, fabric presets, save
-(meshes and the pattern with its seams) and a HUD: fps, simulated time, the stop rule's
-max and mean displacement over the last frame and whether it holds.
+(meshes and the pattern with its seams) and a HUD: fps, simulated time and how fast it
+advances against the wall clock, the stop rule's max and mean displacement over the last
+frame and whether it holds.
 """
 
 from __future__ import annotations
@@ -289,11 +290,13 @@ def run_window(session: Session, *, size=(1024, 768), target_fps: float = TARGET
     tape = session.mannequin.measure()
     values = {k: float(tape[k]) for k in KEYS}
     applied = dict(values)
-    sew_mode, fps, frame, shots = True, 0.0, 0, 0
+    sew_mode, frame, shots = True, 0, 0
+    hud = {"fps": 0.0, "speed": 0.0}  # display rate [1/s], simulated s per wall s
     presets = list_presets()
     dragging = None
     other_s = 0.0  # EMA of a frame's wall time outside the simulation [s]
     steps0, start = session.steps_taken, time.perf_counter()
+    steps_seen = steps0
     while r.window.running and (max_frames is None or frame < max_frames):
         t0 = time.perf_counter()
         budget = frame_budget_s
@@ -302,7 +305,7 @@ def run_window(session: Session, *, size=(1024, 768), target_fps: float = TARGET
         try:
             r, sewing, sew_mode, dragging, shots, values, applied = _frame(
                 session, r, sewing, sew_mode, dragging, shots, values, applied, size,
-                presets, fps, budget)  # fmt: skip
+                presets, hud, budget)  # fmt: skip
         except SandboxError as exc:  # a refused action: say it in the HUD, keep running
             session.message = str(exc)
             applied = dict(values)
@@ -312,11 +315,14 @@ def run_window(session: Session, *, size=(1024, 768), target_fps: float = TARGET
         wall = max(time.perf_counter() - t0, 1e-6)
         sim = session.last_run_s if session.playing else 0.0
         other_s = wall - sim if frame == 1 else 0.8 * other_s + 0.2 * (wall - sim)
-        fps = 0.9 * fps + 0.1 / wall
+        hud["fps"] = 0.9 * hud["fps"] + 0.1 / wall
+        steps = session.steps_taken - steps_seen
+        steps_seen = session.steps_taken
+        hud["speed"] = 0.9 * hud["speed"] + 0.1 * steps * session.scene.dt_s / wall
         if frame == 1:
             steps0, start = session.steps_taken, time.perf_counter()
         if status_path is not None:
-            write_json(status_path, {"frame": frame, "fps": fps,
+            write_json(status_path, {"frame": frame, "fps": hud["fps"],
                                      "measurements": session.mannequin.measure(),
                                      "seams": [[list(map(list, s.side_a)),
                                                 list(map(list, s.side_b))]
@@ -330,7 +336,7 @@ def run_window(session: Session, *, size=(1024, 768), target_fps: float = TARGET
             "sim_steps": session.steps_taken - steps0}  # fmt: skip
 
 
-def _frame(session, r, sewing, sew_mode, dragging, shots, values, applied, size, presets, fps,
+def _frame(session, r, sewing, sew_mode, dragging, shots, values, applied, size, presets, hud,
            frame_budget_s):  # fmt: skip
     """One frame of the window: events, the side panel, the slider changes, simulation."""
     from sandbox.mannequin.measurements import KEYS, SUPPORTED_RANGE_CM
@@ -416,7 +422,8 @@ def _frame(session, r, sewing, sew_mode, dragging, shots, values, applied, size,
             session.save_pattern("sandbox_out/pattern.json")
             session.message = "saved into sandbox_out/"
         st = session.stats
-        gui.text(f"fps {fps:5.1f}   t = {st.sim_time_s:6.2f} s")
+        gui.text(f"fps {hud['fps']:5.1f}   t = {st.sim_time_s:6.2f} s")
+        gui.text(f"simulating at {hud['speed']:.3f} x real time")
         gui.text(f"max {1e3 * st.max_displacement_m:7.2f} mm  mean "
                  f"{1e3 * st.mean_displacement_m:7.3f} mm")  # fmt: skip
         gui.text("converged" if st.converged else "moving")
