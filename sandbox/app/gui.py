@@ -35,6 +35,7 @@ import taichi as ti
 
 from sandbox.app.session import PICK_RADIUS_PX, Session
 from sandbox.errors import SandboxError
+from sandbox.render.offscreen import vertex_normals
 
 BACKGROUND = (1.0, 1.0, 1.0)
 BODY_COLOUR = (0.78, 0.72, 0.64)
@@ -90,7 +91,8 @@ class Renderer:
         body = s.mannequin
         if body is not self._body_drawn:  # a new body (a slider moved): upload it
             self.body_x.from_numpy(body.vertices.astype(np.float32))
-            self.body_n.from_numpy(vertex_normals(body.vertices, body.triangles))
+            n = vertex_normals(np.asarray(body.vertices, np.float64), body.triangles)
+            self.body_n.from_numpy(n.astype(np.float32))
             self._body_drawn = body
         x = s.positions().astype(np.float32)
         self.cloth_x.from_numpy(x)
@@ -251,16 +253,6 @@ class Sewing:
     def reset(self) -> None:
         self.side_a, self.side_b = [], []
         self.renderer.picked = []
-
-
-def vertex_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """Unit vertex normals (n, 3) float32: the area-weighted mean of the faces' normals."""
-    v = np.asarray(vertices, np.float64)
-    t = np.asarray(triangles)
-    fn = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])  # |fn| = 2 area
-    n = np.stack([np.bincount(t.ravel(), np.repeat(fn[:, k], 3), len(v)) for k in range(3)], 1)
-    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
-    return n.astype(np.float32)
 
 
 def _sides(side) -> str:

@@ -201,7 +201,9 @@ def _frame(view: str, points: np.ndarray, width: int, height: int) -> _Camera:
     )
 
 
-def _vertex_normals(v: np.ndarray, t: np.ndarray) -> np.ndarray:
+def vertex_normals(v: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Unit vertex normals (n, 3): the area-weighted sum of the faces' normals (zero for an
+    unused vertex); same dtype as ``v``."""
     fn = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])  # area-weighted
     n = np.zeros_like(v)
     for k in range(3):
@@ -214,7 +216,7 @@ def _vertex_normals(v: np.ndarray, t: np.ndarray) -> np.ndarray:
 
 def _shade(mesh: _Mesh, cam: _Camera) -> np.ndarray:
     """Per-vertex colours (n, 3) in 0..1: two-sided Lambert, light from the upper left."""
-    n = _vertex_normals(mesh.vertices, mesh.triangles)
+    n = vertex_normals(mesh.vertices, mesh.triangles)
     toward_viewer = -cam.forward
     n[n @ toward_viewer < 0] *= -1.0
     light = 0.75 * toward_viewer + 0.5 * cam.up - 0.4 * cam.right
