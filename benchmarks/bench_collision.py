@@ -41,8 +41,11 @@ def main() -> None:
     ap.add_argument("--vertices", type=int, default=10000)
     ap.add_argument("--settle", type=float, default=0.3)
     ap.add_argument("--steps", type=int, default=500)
+    ap.add_argument("--profile", action="store_true",
+                    help="then also 20 self-collision steps under Taichi's kernel profiler: "
+                    "time per loop of the list rebuild and the contact passes")  # fmt: skip
     args = ap.parse_args()
-    runtime.init("cpu")
+    runtime.init("cpu", profile=args.profile)
     both = build_scene(spec(args.vertices, True, True))
     body = build_scene(spec(args.vertices, True))
     free = build_scene(spec(args.vertices, False))
@@ -88,6 +91,13 @@ def main() -> None:
         f"{sc_self.pair_count[None]} candidate pairs, "
         f"{sc_self.rebuilds[None] - rebuilds0} list rebuilds in {args.steps + 2} steps"
     )
+    if args.profile:
+        ti.profiler.clear_kernel_profiler_info()
+        both.solver.advance(both.state, both.control, both.dt_s, 20)
+        ti.sync()
+        print("\nTaichi kernel profiler, 20 steps with self-collision (the rebuild's loops are "
+              "_rebuild_kernel tasks in source order: ... vertex-triangle, edge-edge last):")
+        ti.profiler.print_kernel_profiler_info("count")
 
 
 if __name__ == "__main__":

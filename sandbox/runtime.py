@@ -26,11 +26,14 @@ test suite) ran out and crashed inside Taichi (a segmentation fault, no message)
 RECYCLE_AT = 160
 
 
-def init(arch: str = "cpu", *, float64: bool = False, debug: bool = False) -> None:
+def init(arch: str = "cpu", *, float64: bool = False, debug: bool = False,
+         profile: bool = False) -> None:  # fmt: skip
     """Initialise Taichi once per process.
 
     Calling again with the same settings is a no-op; with other settings Taichi is reset
-    (all fields and models made before become invalid).
+    (all fields and models made before become invalid). ``profile`` turns on Taichi's
+    kernel profiler (per-loop times, ``ti.profiler.print_kernel_profiler_info``; for
+    benchmarks, it slows every launch down a little).
     """
     if arch not in _ARCHES:
         raise SandboxError(f"unknown arch {arch!r}: choose one of {', '.join(_ARCHES)}")
@@ -44,6 +47,7 @@ def init(arch: str = "cpu", *, float64: bool = False, debug: bool = False) -> No
         debug=debug,
         offline_cache=True,
         log_level=ti.WARN,
+        kernel_profiler=profile,
     )
     _state.update(initialised=True, arch=arch, float64=float64, debug=debug)
     log.debug("taichi initialised on %s (float64=%s)", arch, float64)

@@ -1,0 +1,110 @@
+"""Where the explicit step's time goes: ns per triangle, per hinge and per vertex.
+
+Usage: python benchmarks/bench_elements.py [--vertices 16000] [--noise-mm 0 0.1] [--threads 1 2]
+
+Times the three passes of one symplectic Euler step (``SymplecticEulerSolver``'s own
+functions, each in a kernel of its own) on the benchmark's hanging cotton sheet, float32:
+the membrane forces of Eq. 6-8 per triangle, the bending forces per hinge, the gather and
+update (Eq. 2) per vertex. ``--noise-mm`` displaces the vertices randomly (Gaussian, per
+coordinate) so the hinges are bent: libm's atan2 is much faster on flat hinges, so the
+flat benchmark sheet understates a draped garment's bending cost. Best of five rounds.
+"""
+
+import argparse
+import os
+import platform
+import time
+
+import numpy as np
+import taichi as ti
+
+from bench_step import sheet
+from sandbox import runtime
+from sandbox.scene.build import build_scene
+from sandbox.sim import forces
+
+
+def build(n_vertices: int):
+    scene = build_scene(sheet(n_vertices))
+    m, s, x, v = scene.model, scene.solver, scene.state.x, scene.state.v
+    c = scene.control
+
+    @ti.kernel
+    def membrane():
+        for t in range(m.tri_count):
+            i = m.tri_indices[t]
+            r = m.tri_rest_inv[t]
+            f_u, f_v = forces.deformation_columns(x[i[0]], x[i[1]], x[i[2]], r)
+            k = m.tri_stiffness[t]
+            g_u, g_v = forces.eq8_membrane_gradient(f_u, f_v, m.tri_rest_area[t], k[0], k[1], k[2])
+            f1 = -(r[0, 0] * g_u + r[0, 1] * g_v)
+            f2 = -(r[1, 0] * g_u + r[1, 1] * g_v)
+            s.tri_force[3 * t] = -(f1 + f2)
+            s.tri_force[3 * t + 1] = f1
+            s.tri_force[3 * t + 2] = f2
+
+    @ti.kernel
+    def bending():
+        for h in range(m.hinge_count):
+            j = m.hinge_indices[h]
+            th, g0, g1, g2, g3 = forces.dihedral_angle_gradient(x[j[0]], x[j[1]], x[j[2]], x[j[3]])
+            k = -m.hinge_stiffness[h] * (th - m.hinge_rest_angle[h])
+            s.hinge_force[4 * h] = k * g0
+            s.hinge_force[4 * h + 1] = k * g1
+            s.hinge_force[4 * h + 2] = k * g2
+            s.hinge_force[4 * h + 3] = k * g3
+
+    @ti.kernel
+    def gather_update(dt: float):
+        for i in range(m.particle_count):
+            w = m.particle_inv_mass[i]
+            if w > 0.0:  # Eq. 2 with the gathered force; positions not written (no drift)
+                f = s._gathered_force(i)
+                v[i] = v[i] + dt * (f * w + c.gravity[None] - c.damping_per_s[None] * v[i])
+
+    return scene, membrane, bending, gather_update
+
+
+def best_ms(fn, *args, rounds=5, calls=40) -> float:
+    fn(*args)
+    ti.sync()
+    best = float("inf")
+    for _ in range(rounds):
+        t0 = time.perf_counter()
+        for _ in range(calls):
+            fn(*args)
+        ti.sync()
+        best = min(best, (time.perf_counter() - t0) / calls * 1e3)
+    return best
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--vertices", type=int, default=16000)
+    ap.add_argument("--noise-mm", type=float, nargs="+", default=[0.0, 0.1])
+    args = ap.parse_args()
+    runtime.init("cpu")
+    print(f"machine: {platform.machine()}, {os.cpu_count()} cores, Python "
+          f"{platform.python_version()}, Taichi {'.'.join(map(str, ti.__version__))}, float32, "
+          f"parallel loops")  # fmt: skip
+    scene, membrane, bending, gather_update = build(args.vertices)
+    m = scene.model
+    x0 = scene.state.positions()
+    rng = np.random.default_rng(0)
+    print(f"{m.particle_count} vertices, {m.tri_count} triangles, {m.hinge_count} hinges")
+    print(f"{'noise [mm]':>10} {'triangle [ns]':>14} {'hinge [ns]':>11} {'vertex [ns]':>12} "
+          f"{'step [ms]':>10} {'M vertex-steps/s':>17}")  # fmt: skip
+    for noise in args.noise_mm:
+        x = x0 + rng.normal(scale=noise * 1e-3, size=x0.shape)
+        scene.state.set(x.astype(np.float32), np.zeros_like(x, dtype=np.float32))
+        tri = best_ms(membrane)
+        hinge = best_ms(bending)
+        vert = best_ms(gather_update, 1e-6)
+        step = tri + hinge + vert
+        print(f"{noise:10.2f} {tri * 1e6 / m.tri_count:14.1f} {hinge * 1e6 / m.hinge_count:11.1f} "
+              f"{vert * 1e6 / m.particle_count:12.1f} {step:10.3f} "
+              f"{m.particle_count / step / 1e3:17.2f}")  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()
