@@ -95,8 +95,10 @@ def main() -> None:
         ti.profiler.clear_kernel_profiler_info()
         both.solver.advance(both.state, both.control, both.dt_s, 20)
         ti.sync()
-        print("\nTaichi kernel profiler, 20 steps with self-collision (the rebuild's loops are "
-              "_rebuild_kernel tasks in source order: ... vertex-triangle, edge-edge last):")
+        print(
+            "\nTaichi kernel profiler, 20 steps with self-collision (the rebuild's loops are "
+            "_rebuild_kernel tasks in source order: ... vertex-triangle, edge-edge last):"
+        )
         ti.profiler.print_kernel_profiler_info("count")
 
 

@@ -17,8 +17,8 @@ import time
 
 import numpy as np
 import taichi as ti
-
 from bench_step import sheet
+
 from sandbox import runtime
 from sandbox.scene.build import build_scene
 from sandbox.sim import forces

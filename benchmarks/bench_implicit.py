@@ -270,8 +270,11 @@ def garment():
             spl.splu(a, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
                      options={"SymmetricMode": True})  # fmt: skip
             times.append(time.perf_counter() - t0)
-        print(f"garment {name} {edge * 100:g} cm: {a.shape[0]} unknowns, {a.nnz} non-zeros, "
-              f"SuperLU factorisation {1e3 * min(times):.0f} ms (best of 3)", flush=True)
+        print(
+            f"garment {name} {edge * 100:g} cm: {a.shape[0]} unknowns, {a.nnz} non-zeros, "
+            f"SuperLU factorisation {1e3 * min(times):.0f} ms (best of 3)",
+            flush=True,
+        )
 
 
 def main() -> None:
