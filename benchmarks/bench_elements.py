@@ -3,7 +3,8 @@
 Usage: python benchmarks/bench_elements.py [--vertices 16000] [--noise-mm 0 0.1] [--threads 1 2]
 
 Times the three passes of one symplectic Euler step (``SymplecticEulerSolver``'s own
-functions, each in a kernel of its own) on the benchmark's hanging cotton sheet, float32:
+functions, each in a kernel of its own: ``_membrane_forces``, ``_bending_forces`` and the
+per-vertex gather of ``_velocity``) on the benchmark's hanging cotton sheet, float32:
 the membrane forces of Eq. 6-8 per triangle, the bending forces per hinge, the gather and
 update (Eq. 2) per vertex. ``--noise-mm`` displaces the vertices randomly (Gaussian, per
 coordinate) so the hinges are bent: libm's atan2 is much faster on flat hinges, so the
@@ -21,7 +22,6 @@ from bench_step import sheet
 
 from sandbox import runtime
 from sandbox.scene.build import build_scene
-from sandbox.sim import forces
 
 
 def build(n_vertices: int):
@@ -31,28 +31,11 @@ def build(n_vertices: int):
 
     @ti.kernel
     def membrane():
-        for t in range(m.tri_count):
-            i = m.tri_indices[t]
-            r = m.tri_rest_inv[t]
-            f_u, f_v = forces.deformation_columns(x[i[0]], x[i[1]], x[i[2]], r)
-            k = m.tri_stiffness[t]
-            g_u, g_v = forces.eq8_membrane_gradient(f_u, f_v, m.tri_rest_area[t], k[0], k[1], k[2])
-            f1 = -(r[0, 0] * g_u + r[0, 1] * g_v)
-            f2 = -(r[1, 0] * g_u + r[1, 1] * g_v)
-            s.tri_force[3 * t] = -(f1 + f2)
-            s.tri_force[3 * t + 1] = f1
-            s.tri_force[3 * t + 2] = f2
+        s._membrane_forces(x)
 
     @ti.kernel
     def bending():
-        for h in range(m.hinge_count):
-            j = m.hinge_indices[h]
-            th, g0, g1, g2, g3 = forces.dihedral_angle_gradient(x[j[0]], x[j[1]], x[j[2]], x[j[3]])
-            k = -m.hinge_stiffness[h] * (th - m.hinge_rest_angle[h])
-            s.hinge_force[4 * h] = k * g0
-            s.hinge_force[4 * h + 1] = k * g1
-            s.hinge_force[4 * h + 2] = k * g2
-            s.hinge_force[4 * h + 3] = k * g3
+        s._bending_forces(x)
 
     @ti.kernel
     def gather_update(dt: float):

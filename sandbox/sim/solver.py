@@ -176,8 +176,14 @@ class SymplecticEulerSolver:
     # ------------------------------------------------------------------ per-step pieces
     @ti.func
     def _element_forces(self, x):
+        self._membrane_forces(x)
+        self._bending_forces(x)
+        self._seam_forces(x)
+
+    @ti.func
+    def _membrane_forces(self, x):
+        """Eq. 6-8: membrane forces of each triangle, into its three corner slots."""
         m = self.model
-        # Eq. 6-8: membrane forces of each triangle, into its three corner slots
         for t in range(m.tri_count):
             i = m.tri_indices[t]
             r = m.tri_rest_inv[t]
@@ -190,7 +196,12 @@ class SymplecticEulerSolver:
             self.tri_force[3 * t] = -(f1 + f2)
             self.tri_force[3 * t + 1] = f1
             self.tri_force[3 * t + 2] = f2
-        # Eq. 7-8: bending U_b = E_b/2 (θ_b − θ_0)^2, F = −E_b (θ_b − θ_0) ∂θ_b/∂x
+
+    @ti.func
+    def _bending_forces(self, x):
+        """Eq. 7-8: bending U_b = E_b/2 (θ_b − θ_0)^2, F = −E_b (θ_b − θ_0) ∂θ_b/∂x, into
+        each hinge's four slots."""
+        m = self.model
         if ti.static(m.hinge_count > 0):
             for h in range(m.hinge_count):
                 j = m.hinge_indices[h]
@@ -202,7 +213,6 @@ class SymplecticEulerSolver:
                 self.hinge_force[4 * h + 1] = s * g1
                 self.hinge_force[4 * h + 2] = s * g2
                 self.hinge_force[4 * h + 3] = s * g3
-        self._seam_forces(x)
 
     @ti.func
     def _seam_forces(self, x):
