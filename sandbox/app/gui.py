@@ -47,11 +47,11 @@ TARGET_FPS = 30.0
 SEAM_SHOWN_M = 0.002
 """Seam springs longer than this [m] are drawn as lines (closed ones would not show)."""
 MIN_SIM_BUDGET_S = 0.004
+"""The least simulation wall time per displayed frame (one step at least is always run)."""
 FPS_HEADROOM = 1.05
 """The window plans its frames for this factor above ``target_fps``: frame times jitter
 (the simulation's chunks, the software renderer), and aiming at the target exactly left
 the measured rate just under it (29.4-29.7 fps for 30)."""
-"""The least simulation wall time per displayed frame (one step at least is always run)."""
 
 
 class Renderer:
