@@ -34,7 +34,7 @@ def main() -> None:
     )
     args = ap.parse_args()
     from sandbox import runtime
-    from sandbox.app.gui import Renderer, run_window
+    from sandbox.app.gui import FrameBudget, Renderer, run_window
     from sandbox.app.session import Session
 
     runtime.init("cpu")
@@ -80,14 +80,13 @@ def main() -> None:
         loop_fps = loop_stats["fps"]
         steps_per_frame = loop_stats["sim_steps"] / max(1, loop_stats["frames"])
     else:
-        other, loop, steps0 = 0.0, [], s.steps_taken
-        for _ in range(args.frames):
+        budget, loop, steps0 = FrameBudget(fixed_s=args.budget), [], s.steps_taken
+        for _ in range(args.frames):  # the window's loop without the panel
             t0 = time.perf_counter()
-            budget = args.budget if args.budget is not None else max(0.004, 1 / 30 - other)
-            s.run_for(budget)
+            s.run_for(budget.next())
             present()
             loop.append(time.perf_counter() - t0)
-            other = 0.8 * other + 0.2 * (loop[-1] - s.last_run_s)
+            budget.record(loop[-1], s.last_run_s)
         loop_fps = 1.0 / np.median(loop)
         steps_per_frame = (s.steps_taken - steps0) / args.frames
     w, h = args.size
@@ -104,7 +103,8 @@ def main() -> None:
     print(f"display fps with one simulated frame per display frame: {both:.1f}; "
           f"drawing alone: {alone:.1f} fps")  # fmt: skip
     what = "adaptive" if args.budget is None else f"{1e3 * args.budget:.0f} ms"
-    print(f"window loop (simulation budget {what}, panel, draw, show): {loop_fps:.1f} fps, "
+    parts = "panel, draw, show" if windowed else "draw, read back"
+    print(f"window loop (simulation budget {what}, {parts}): {loop_fps:.1f} fps, "
           f"{steps_per_frame:.1f} steps per displayed frame "
           f"(simulated {steps_per_frame * s.scene.dt_s * loop_fps:.3f} s per wall s)")  # fmt: skip
     print(f"real-time factor of the simulation: {(1 / 30) / np.median(sim):.2f}")

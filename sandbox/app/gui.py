@@ -54,6 +54,27 @@ FPS_HEADROOM = 1.05
 the measured rate just under it (29.4-29.7 fps for 30)."""
 
 
+class FrameBudget:
+    """The simulation's wall time per displayed frame [s]: ``fixed_s`` if given, else what
+    is left of 1/(``FPS_HEADROOM`` x ``target_fps``) after the rest of the recent frames
+    (an average), at least :data:`MIN_SIM_BUDGET_S`."""
+
+    def __init__(self, target_fps: float = TARGET_FPS, fixed_s: float | None = None):
+        self.frame_s = 1.0 / (FPS_HEADROOM * target_fps)
+        self.fixed_s = fixed_s
+        self.other_s = None  # a frame's wall time outside the simulation [s]
+
+    def next(self) -> float:
+        if self.fixed_s is not None:
+            return self.fixed_s
+        return max(MIN_SIM_BUDGET_S, self.frame_s - (self.other_s or 0.0))
+
+    def record(self, wall_s: float, sim_s: float) -> None:
+        """A frame took ``wall_s``, ``sim_s`` of it simulating."""
+        other = wall_s - sim_s
+        self.other_s = other if self.other_s is None else 0.8 * self.other_s + 0.2 * other
+
+
 class Renderer:
     """GGUI drawing of a Session: body, garment, seam springs and picked edges.
 
@@ -290,18 +311,15 @@ def run_window(session: Session, *, size=(1024, 768), target_fps: float = TARGET
     hud = {"fps": 0.0, "speed": 0.0}  # display rate [1/s], simulated s per wall s
     presets = list_presets()
     dragging = None
-    other_s = 0.0  # EMA of a frame's wall time outside the simulation [s]
+    budget = FrameBudget(target_fps, frame_budget_s)
     steps0, start = session.steps_taken, time.perf_counter()
     steps_seen = steps0
     while r.window.running and (max_frames is None or frame < max_frames):
         t0 = time.perf_counter()
-        budget = frame_budget_s
-        if budget is None:
-            budget = max(MIN_SIM_BUDGET_S, 1.0 / (FPS_HEADROOM * target_fps) - other_s)
         try:
             r, sewing, sew_mode, dragging, shots, values, applied = _frame(
                 session, r, sewing, sew_mode, dragging, shots, values, applied, size,
-                presets, hud, budget)  # fmt: skip
+                presets, hud, budget.next())  # fmt: skip
         except SandboxError as exc:  # a refused action: say it in the HUD, keep running
             session.message = str(exc)
             applied = dict(values)
@@ -309,8 +327,7 @@ def run_window(session: Session, *, size=(1024, 768), target_fps: float = TARGET
         r.window.show()
         frame += 1
         wall = max(time.perf_counter() - t0, 1e-6)
-        sim = session.last_run_s if session.playing else 0.0
-        other_s = wall - sim if frame == 1 else 0.8 * other_s + 0.2 * (wall - sim)
+        budget.record(wall, session.last_run_s if session.playing else 0.0)
         hud["fps"] = 0.9 * hud["fps"] + 0.1 / wall
         steps = session.steps_taken - steps_seen
         steps_seen = session.steps_taken
