@@ -162,8 +162,10 @@ class BodyCollider:
             )
             lo = self._cell_of(ti.min(a, b, c) - pad)
             hi = self._cell_of(ti.max(a, b, c) + pad)
-            for i, j, k in ti.ndrange((lo[0], hi[0] + 1), (lo[1], hi[1] + 1), (lo[2], hi[2] + 1)):
-                ti.atomic_add(self.cell_fill[self._cell_index(ti.Vector([i, j, k]))], 1)
+            for i in range(lo[0], hi[0] + 1):
+                for j in range(lo[1], hi[1] + 1):
+                    for k in range(lo[2], hi[2] + 1):
+                        ti.atomic_add(self.cell_fill[self._cell_index(ti.Vector([i, j, k]))], 1)
         ti.loop_config(serialize=True)
         for c in range(self.cell_fill.shape[0]):
             if c == 0:
@@ -178,13 +180,15 @@ class BodyCollider:
             )
             lo = self._cell_of(ti.min(a, b, c) - pad)
             hi = self._cell_of(ti.max(a, b, c) + pad)
-            for i, j, k in ti.ndrange((lo[0], hi[0] + 1), (lo[1], hi[1] + 1), (lo[2], hi[2] + 1)):
-                cid = self._cell_index(ti.Vector([i, j, k]))
-                slot = self.cell_start[cid] + ti.atomic_add(self.cell_fill[cid], 1)
-                if slot < self.entry_capacity:
-                    self.cell_entries[slot] = t
-                else:
-                    self.overflow[None] = 1
+            for i in range(lo[0], hi[0] + 1):
+                for j in range(lo[1], hi[1] + 1):
+                    for k in range(lo[2], hi[2] + 1):
+                        cid = self._cell_index(ti.Vector([i, j, k]))
+                        slot = self.cell_start[cid] + ti.atomic_add(self.cell_fill[cid], 1)
+                        if slot < self.entry_capacity:
+                            self.cell_entries[slot] = t
+                        else:
+                            self.overflow[None] = 1
         # vertex normals (area-weighted) and the vertex grid
         for i in self.vertex_normal:
             self.vertex_normal[i] = ti.Vector([0.0, 0.0, 0.0])
@@ -244,24 +248,26 @@ class BodyCollider:
             lo = self._cell_of(box_lo)
             hi = self._cell_of(box_hi)
             visited = 0
-            for i, j, k in ti.ndrange((lo[0], hi[0] + 1), (lo[1], hi[1] + 1), (lo[2], hi[2] + 1)):
-                visited += 1
-                if visited <= MAX_CELLS_PER_QUERY:
-                    cid = self._cell_index(ti.Vector([i, j, k]))
-                    for e in range(self.v_cell_start[cid], self.v_cell_start[cid + 1]):
-                        vid = self.v_entries[e]
-                        p = self.body_x[vid]
-                        if (p >= box_lo).all() and (p <= box_hi).all():
-                            n = nc
-                            if nc.dot(self.vertex_normal[vid]) < 0.0:
-                                n = -nc
-                            s = (p - a).dot(n)
-                            if s > -h and s < 0.25 * longest:
-                                w = _barycentric(p - s * n, a, b, c)
-                                if w.min() > 0.0 and s + h > best:
-                                    best = s + h
-                                    best_n = n
-                                    best_w = w
+            for i in range(lo[0], hi[0] + 1):
+                for j in range(lo[1], hi[1] + 1):
+                    for k in range(lo[2], hi[2] + 1):
+                        visited += 1
+                        if visited <= MAX_CELLS_PER_QUERY:
+                            cid = self._cell_index(ti.Vector([i, j, k]))
+                            for e in range(self.v_cell_start[cid], self.v_cell_start[cid + 1]):
+                                vid = self.v_entries[e]
+                                p = self.body_x[vid]
+                                if (p >= box_lo).all() and (p <= box_hi).all():
+                                    n = nc
+                                    if nc.dot(self.vertex_normal[vid]) < 0.0:
+                                        n = -nc
+                                    s = (p - a).dot(n)
+                                    if s > -h and s < 0.25 * longest:
+                                        w = _barycentric(p - s * n, a, b, c)
+                                        if w.min() > 0.0 and s + h > best:
+                                            best = s + h
+                                            best_n = n
+                                            best_w = w
         return best, best_n, best_w
 
     @ti.func
@@ -279,38 +285,40 @@ class BodyCollider:
         best_q = ti.Vector([0.0, 0.0, 0.0])
         best_pn = ti.Vector([0.0, 0.0, 0.0])
         visited = 0
-        for i, j, k in ti.ndrange((lo[0], hi[0] + 1), (lo[1], hi[1] + 1), (lo[2], hi[2] + 1)):
-            visited += 1
-            if visited <= MAX_CELLS_PER_QUERY:
-                cid = self._cell_index(ti.Vector([i, j, k]))
-                for e in range(self.cell_start[cid], self.cell_start[cid + 1]):
-                    t = self.cell_entries[e]
-                    n = self.tri_normal[t]
-                    s0 = n.dot(x) - self.tri_offset[t]
-                    s1 = n.dot(x1) - self.tri_offset[t]
-                    # a crossing needs the two ends on opposite sides of the plane, and
-                    # proximity needs the predicted position within h of the plane
-                    if s0 * s1 <= 0.0 or ti.abs(s1) <= h:
-                        a = self.body_x[self.tri[t][0]]
-                        b = self.body_x[self.tri[t][1]]
-                        c = self.body_x[self.tri[t][2]]
-                        if s0 * s1 <= 0.0:
-                            hit, s = segment_triangle(x, x1, a, b, c)
-                            if hit and s < best_t:
-                                best_t = s
-                                best_n = n
-                                if ti.static(not self.closed):
-                                    if s0 < 0.0:
-                                        best_n = -n
-                        reach = self.tri_radius[t] + h
-                        near = (x1 - self.tri_centre[t]).norm_sqr() <= reach * reach
-                        if near or s0 * s1 <= 0.0:
-                            q = closest_point_on_triangle(x1, a, b, c)
-                            d = (x1 - q).norm()
-                            if d < best_d:
-                                best_d = d
-                                best_q = q
-                                best_pn = n
+        for i in range(lo[0], hi[0] + 1):
+            for j in range(lo[1], hi[1] + 1):
+                for k in range(lo[2], hi[2] + 1):
+                    visited += 1
+                    if visited <= MAX_CELLS_PER_QUERY:
+                        cid = self._cell_index(ti.Vector([i, j, k]))
+                        for e in range(self.cell_start[cid], self.cell_start[cid + 1]):
+                            t = self.cell_entries[e]
+                            n = self.tri_normal[t]
+                            s0 = n.dot(x) - self.tri_offset[t]
+                            s1 = n.dot(x1) - self.tri_offset[t]
+                            # a crossing needs the two ends on opposite sides of the plane, and
+                            # proximity needs the predicted position within h of the plane
+                            if s0 * s1 <= 0.0 or ti.abs(s1) <= h:
+                                a = self.body_x[self.tri[t][0]]
+                                b = self.body_x[self.tri[t][1]]
+                                c = self.body_x[self.tri[t][2]]
+                                if s0 * s1 <= 0.0:
+                                    hit, s = segment_triangle(x, x1, a, b, c)
+                                    if hit and s < best_t:
+                                        best_t = s
+                                        best_n = n
+                                        if ti.static(not self.closed):
+                                            if s0 < 0.0:
+                                                best_n = -n
+                                reach = self.tri_radius[t] + h
+                                near = (x1 - self.tri_centre[t]).norm_sqr() <= reach * reach
+                                if near or s0 * s1 <= 0.0:
+                                    q = closest_point_on_triangle(x1, a, b, c)
+                                    d = (x1 - q).norm()
+                                    if d < best_d:
+                                        best_d = d
+                                        best_q = q
+                                        best_pn = n
         v_new = v
         if dt <= 0.0:  # a zero step (the compile warm-up) moves nothing: nothing to revise
             best_t = 2.0

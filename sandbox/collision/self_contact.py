@@ -107,7 +107,9 @@ class SelfCollider:
         self.mean_edge = float(np.linalg.norm(rest[edges[:, 0]] - rest[edges[:, 1]], axis=1).mean())
 
         # hash grids: vertices by position, edges by midpoint (one entry each)
-        self.table = 1 << max(10, math.ceil(math.log2(4 * max(n, len(edges)))))
+        # (sized to the item count: the cloth occupies far fewer cells than it has items,
+        # so buckets seldom hold two cells, and the serial prefix sum below stays short)
+        self.table = 1 << max(10, math.ceil(math.log2(max(n, len(edges)))))
         self.v_count = ti.field(ti.i32, shape=self.table)
         self.v_start = ti.field(ti.i32, shape=self.table + 1)
         self.v_entry = ti.field(ti.i32, shape=max(1, n))
@@ -120,6 +122,12 @@ class SelfCollider:
         self.pair = ti.Vector.field(4, ti.i32, shape=self.capacity)
         self.pair_kind = ti.field(ti.i32, shape=self.capacity)
         self.pair_hit = ti.field(ti.i32, shape=self.capacity)
+        # each pair's geometry at x(t), computed in parallel at the start of the passes
+        # (x does not change during them): weights W, closest-point vector d, |d|
+        self.pair_w = ti.Vector.field(4, float, shape=self.capacity)
+        self.pair_d = ti.Vector.field(3, float, shape=self.capacity)
+        self.pair_dist = ti.field(float, shape=self.capacity)
+        self.touched = ti.field(ti.i32, shape=max(1, n))  # got a CCD impulse this step
         self.pair_count = ti.field(ti.i32, shape=())
         self.overflow = ti.field(ti.i32, shape=())
 
@@ -323,6 +331,8 @@ class SelfCollider:
         for i in range(m.particle_count):
             bk = self._bucket(self._cell_of(x[i]))
             self.v_entry[self.v_start[bk] + ti.atomic_add(self.v_count[bk], 1)] = i
+        # serial, so each bucket lists its edges in increasing order (the query stops early)
+        ti.loop_config(serialize=True)
         for e in range(self.edge_count):
             bk = self._bucket(self._cell_of(0.5 * (x[self.edge[e][0]] + x[self.edge[e][1]])))
             self.e_entry[self.e_start[bk] + ti.atomic_add(self.e_count[bk], 1)] = e
@@ -340,24 +350,30 @@ class SelfCollider:
             ya, yb, yc = a + dt * v[tv[0]], b + dt * v[tv[1]], c + dt * v[tv[2]]
             t_lo = ti.min(ti.min(a, b, c), ti.min(ya, yb, yc)) - reach
             t_hi = ti.max(ti.max(a, b, c), ti.max(ya, yb, yc)) + reach
-            for i, j, k in ti.ndrange((lo[0], hi[0] + 1), (lo[1], hi[1] + 1), (lo[2], hi[2] + 1)):
-                cid = ti.Vector([i, j, k])
-                bk = self._bucket(cid)
-                for s in range(self.v_start[bk], self.v_start[bk + 1]):
-                    u = self.v_entry[s]
-                    p = x[u]
-                    # cheap tests first (Taichi does not short-circuit ``and``): the query
-                    # box, then the vertex's own cell (hash collisions), then the rest
-                    if (p >= box_lo).all() and (p <= box_hi).all():
-                        if (self._cell_of(p) == cid).all():
-                            y = p + dt * v[u]
-                            if (ti.min(p, y) <= t_hi).all() and (ti.max(p, y) >= t_lo).all():
-                                if not self._excluded_vt(u, tv):
-                                    w = point_triangle_closest(p, a, b, c)
-                                    q = w[0] * a + w[1] * b + w[2] * c
-                                    sweep = sweep_k * (self._motion(u, v, dt) + tri_move)
-                                    if (p - q).norm() < reach + sweep:
-                                        self._append(KIND_VT, ti.Vector([u, tv[0], tv[1], tv[2]]))
+            for i in range(lo[0], hi[0] + 1):
+                for j in range(lo[1], hi[1] + 1):
+                    for k in range(lo[2], hi[2] + 1):
+                        cid = ti.Vector([i, j, k])
+                        bk = self._bucket(cid)
+                        for s in range(self.v_start[bk], self.v_start[bk + 1]):
+                            u = self.v_entry[s]
+                            p = x[u]
+                            # cheap tests first (Taichi does not short-circuit ``and``): the query
+                            # box, then the vertex's own cell (hash collisions), then the rest
+                            if (p >= box_lo).all() and (p <= box_hi).all():
+                                if (self._cell_of(p) == cid).all():
+                                    y = p + dt * v[u]
+                                    if (ti.min(p, y) <= t_hi).all() and (
+                                        ti.max(p, y) >= t_lo
+                                    ).all():
+                                        if not self._excluded_vt(u, tv):
+                                            w = point_triangle_closest(p, a, b, c)
+                                            q = w[0] * a + w[1] * b + w[2] * c
+                                            sweep = sweep_k * (self._motion(u, v, dt) + tri_move)
+                                            if (p - q).norm() < reach + sweep:
+                                                self._append(
+                                                    KIND_VT, ti.Vector([u, tv[0], tv[1], tv[2]])
+                                                )
         # edge-edge
         grow = query + self.half_edge[None]
         for e in range(self.edge_count):
@@ -370,27 +386,30 @@ class SelfCollider:
             a_hi = ti.max(ti.max(p0, p1), ti.max(r0, r1)) + reach
             lo = self._cell_of(ti.min(p0, p1) - grow)
             hi = self._cell_of(ti.max(p0, p1) + grow)
-            for i, j, k in ti.ndrange((lo[0], hi[0] + 1), (lo[1], hi[1] + 1), (lo[2], hi[2] + 1)):
-                cid = ti.Vector([i, j, k])
-                bk = self._bucket(cid)
-                for s in range(self.e_start[bk], self.e_start[bk + 1]):
-                    # nested: Taichi evaluates both sides of ``and``; cheap tests first
-                    f = self.e_entry[s]
-                    eb = self.edge[f]
-                    q0, q1 = x[eb[0]], x[eb[1]]
-                    if (
-                        f > e
-                        and (ti.min(q0, q1) <= box_hi).all()
-                        and (ti.max(q0, q1) >= box_lo).all()
-                    ):
-                        if (self._cell_of(0.5 * (q0 + q1)) == cid).all():
-                            s0, s1 = q0 + dt * v[eb[0]], q1 + dt * v[eb[1]]
-                            b_lo = ti.min(ti.min(q0, q1), ti.min(s0, s1))
-                            b_hi = ti.max(ti.max(q0, q1), ti.max(s0, s1))
-                            if (a_lo <= b_hi).all() and (b_lo <= a_hi).all():
-                                if not self._excluded_ee(ea, eb):
-                                    self._edge_pair(ea, eb, p0, p1, q0, q1, move_a, reach,
-                                                    sweep_k, v, dt)  # fmt: skip
+            for i in range(lo[0], hi[0] + 1):
+                for j in range(lo[1], hi[1] + 1):
+                    for k in range(lo[2], hi[2] + 1):
+                        cid = ti.Vector([i, j, k])
+                        bk = self._bucket(cid)
+                        # each pair once (f > e): the bucket's edges from the last down to e
+                        s = self.e_start[bk + 1] - 1
+                        while s >= self.e_start[bk] and self.e_entry[s] > e:
+                            f = self.e_entry[s]
+                            s -= 1
+                            eb = self.edge[f]
+                            q0, q1 = x[eb[0]], x[eb[1]]
+                            # nested: Taichi evaluates both sides of ``and``; cheap tests first
+                            if (ti.min(q0, q1) <= box_hi).all() and (
+                                ti.max(q0, q1) >= box_lo
+                            ).all():
+                                if (self._cell_of(0.5 * (q0 + q1)) == cid).all():
+                                    s0, s1 = q0 + dt * v[eb[0]], q1 + dt * v[eb[1]]
+                                    b_lo = ti.min(ti.min(q0, q1), ti.min(s0, s1))
+                                    b_hi = ti.max(ti.max(q0, q1), ti.max(s0, s1))
+                                    if (a_lo <= b_hi).all() and (b_lo <= a_hi).all():
+                                        if not self._excluded_ee(ea, eb):
+                                            self._edge_pair(ea, eb, p0, p1, q0, q1, move_a, reach,
+                                                            sweep_k, v, dt)  # fmt: skip
         self.needs_build[None] = 0
         self.rebuilds[None] += 1
 
@@ -429,33 +448,58 @@ class SelfCollider:
 
     @ti.func
     def proximity(self, x, v, dt):
-        """Pass 1: inelastic impulse, friction and separation for pairs closer than h."""
+        """Pass 1: inelastic impulse, friction and separation for pairs closer than h.
+
+        The pairs' geometry is computed for all of them in parallel; the impulses are then
+        applied one pair after the other (each sees the velocities the previous left).
+        """
         h = self.thickness[None]
+        count = ti.min(self.pair_count[None], self.capacity)
+        for p in range(count):  # parallel
+            idx = self.pair[p]
+            W, d = self._geometry(self.pair_kind[p], x[idx[0]], x[idx[1]], x[idx[2]], x[idx[3]])
+            self.pair_w[p] = W
+            self.pair_d[p] = d
+            self.pair_dist[p] = d.norm()
         for _ in range(1):  # serial: impulses of one pair are seen by the next
-            for p in range(ti.min(self.pair_count[None], self.capacity)):
-                idx = self.pair[p]
-                kind = self.pair_kind[p]
-                p0, p1, p2, p3 = x[idx[0]], x[idx[1]], x[idx[2]], x[idx[3]]
-                W, d = self._geometry(kind, p0, p1, p2, p3)
-                dist = d.norm()
-                denom = self._denominator(idx, W)
-                if dist < h and denom > 0.0:
-                    n = self._fallback_normal(kind, p0, p1, p2, p3)
-                    if dist > 1e-6 * h:
-                        n = d / dist
-                    vr = W[0] * v[idx[0]] + W[1] * v[idx[1]] + W[2] * v[idx[2]] + W[3] * v[idx[3]]
-                    vn = vr.dot(n)
-                    dvn = ti.max(0.0, -vn)  # inelastic: stop the approach
-                    vt = vr - vn * n
-                    vt_len = vt.norm()
-                    dvt = ti.Vector([0.0, 0.0, 0.0])
-                    if vt_len > 0.0:  # Coulomb friction from the normal impulse
-                        dvt = -ti.min(self.mu[None] * dvn / vt_len, 1.0) * vt
-                    self._apply(idx, W, (dvn * n + dvt) / denom, v)
-                    if dt > 0.0:
-                        extra = SEPARATION_FRACTION * (h - dist) - dt * ti.max(vn + dvn, 0.0)
-                        if extra > 0.0:
-                            self._apply(idx, W, extra / dt / denom * n, self.corr)
+            for p in range(count):
+                dist = self.pair_dist[p]
+                if dist < h:
+                    idx = self.pair[p]
+                    W = self.pair_w[p]
+                    denom = self._denominator(idx, W)
+                    if denom > 0.0:
+                        n = self.pair_d[p] / ti.max(dist, 1e-30)
+                        if dist <= 1e-6 * h:
+                            p0, p1, p2, p3 = x[idx[0]], x[idx[1]], x[idx[2]], x[idx[3]]
+                            n = self._fallback_normal(self.pair_kind[p], p0, p1, p2, p3)
+                        vr = W[0] * v[idx[0]] + W[1] * v[idx[1]] + W[2] * v[idx[2]]
+                        vr += W[3] * v[idx[3]]
+                        vn = vr.dot(n)
+                        dvn = ti.max(0.0, -vn)  # inelastic: stop the approach
+                        vt = vr - vn * n
+                        vt_len = vt.norm()
+                        dvt = ti.Vector([0.0, 0.0, 0.0])
+                        if vt_len > 0.0:  # Coulomb friction from the normal impulse
+                            dvt = -ti.min(self.mu[None] * dvn / vt_len, 1.0) * vt
+                        self._apply(idx, W, (dvn * n + dvt) / denom, v)
+                        if dt > 0.0:
+                            extra = SEPARATION_FRACTION * (h - dist) - dt * ti.max(vn + dvn, 0.0)
+                            if extra > 0.0:
+                                self._apply(idx, W, extra / dt / denom * n, self.corr)
+
+    @ti.func
+    def _reach(self, kind, idx, v, dt):
+        """How far the pair's two features can approach each other this step [m]: the sum
+        of each side's largest displacement dt (v + corr)."""
+        u0 = dt * (v[idx[0]] + self.corr[idx[0]])
+        u1 = dt * (v[idx[1]] + self.corr[idx[1]])
+        u2 = dt * (v[idx[2]] + self.corr[idx[2]])
+        u3 = dt * (v[idx[3]] + self.corr[idx[3]])
+        reach = u0.norm() + ti.max(u1.norm(), u2.norm(), u3.norm())
+        if kind == KIND_EE:
+            reach = ti.max(u0.norm(), u1.norm()) + ti.max(u2.norm(), u3.norm())
+        return reach
 
     @ti.func
     def _collision(self, kind, idx, x, v, dt):
@@ -468,9 +512,7 @@ class SelfCollider:
         u1 = dt * (v[idx[1]] + self.corr[idx[1]])
         u2 = dt * (v[idx[2]] + self.corr[idx[2]])
         u3 = dt * (v[idx[3]] + self.corr[idx[3]])
-        reach = u0.norm() + ti.max(u1.norm(), u2.norm(), u3.norm())
-        if kind == KIND_EE:
-            reach = ti.max(u0.norm(), u1.norm()) + ti.max(u2.norm(), u3.norm())
+        reach = self._reach(kind, idx, v, dt)
         hit = False
         W = ti.Vector([0.0, 0.0, 0.0, 0.0])
         n = ti.Vector([0.0, 0.0, 0.0])
@@ -504,29 +546,46 @@ class SelfCollider:
 
     @ti.func
     def continuous(self, x, v, dt):
-        """Pass 2: CCD with inelastic impulses, repeated; sets ``unresolved``."""
+        """Pass 2: CCD with inelastic impulses, repeated; sets ``unresolved``.
+
+        A pair can collide only if its features' motions this step add up to at least
+        their distance at x(t) (from pass 1). That is checked for every pair in parallel;
+        the serial passes then test, in order, the pairs that could collide and the pairs
+        whose vertices an impulse of this pass has moved since.
+        """
         h = self.thickness[None]
+        eps = 1e-6 + 1e-3 * h
+        count = ti.min(self.pair_count[None], self.capacity)
         self.unresolved[None] = 0
+        for i in range(self.model.particle_count):
+            self.touched[i] = 0
+        for p in range(count):  # parallel
+            may = self._reach(self.pair_kind[p], self.pair[p], v, dt) >= self.pair_dist[p] - eps
+            self.pair_hit[p] = 1 if may else 0
         for _ in range(1):  # serial
             remaining = 1
             passes = 0
             while remaining > 0 and passes < CCD_PASSES and dt > 0.0:
                 remaining = 0
                 passes += 1
-                for p in range(ti.min(self.pair_count[None], self.capacity)):
+                for p in range(count):
                     idx = self.pair[p]
-                    hit, W, n, g0 = self._collision(self.pair_kind[p], idx, x, v, dt)
-                    denom = self._denominator(idx, W)
-                    if hit and denom > 0.0:
-                        ur = ti.Vector([0.0, 0.0, 0.0])
-                        for k in ti.static(range(4)):
-                            ur += W[k] * dt * (v[idx[k]] + self.corr[idx[k]])
-                        gap = ti.min(CCD_GAP_FRACTION * h, 0.5 * g0)
-                        need = (gap - g0 - ur.dot(n)) / dt  # normal velocity change
-                        if need > 0.0:
-                            self._apply(idx, W, need / denom * n, v)
-                            remaining += 1
-                            self.ccd_hits[None] += 1
+                    moved = self.touched[idx[0]] + self.touched[idx[1]] + self.touched[idx[2]]
+                    if self.pair_hit[p] + moved + self.touched[idx[3]] > 0:
+                        hit, W, n, g0 = self._collision(self.pair_kind[p], idx, x, v, dt)
+                        denom = self._denominator(idx, W)
+                        if hit and denom > 0.0:
+                            ur = ti.Vector([0.0, 0.0, 0.0])
+                            for k in ti.static(range(4)):
+                                ur += W[k] * dt * (v[idx[k]] + self.corr[idx[k]])
+                            gap = ti.min(CCD_GAP_FRACTION * h, 0.5 * g0)
+                            need = (gap - g0 - ur.dot(n)) / dt  # normal velocity change
+                            if need > 0.0:
+                                self._apply(idx, W, need / denom * n, v)
+                                for k in ti.static(range(4)):
+                                    self.touched[idx[k]] = 1
+                                remaining += 1
+                                self.ccd_hits[None] += 1
             if remaining > 0:
                 self.unresolved[None] = remaining
         # the candidate list covers the step only if no vertex ends beyond margin / 2 (or
