@@ -35,8 +35,6 @@ one of the partner's mesh neighbours). Excluding mesh neighbours too would shrin
 a lot but lets tight folds of a soft fabric cross (measured on the floor pile test).
 """
 
-import math
-
 import numpy as np
 import taichi as ti
 
@@ -53,6 +51,8 @@ SWEEP_SAFETY = 1.25  # a fast step's pairs: reach grown by this times their rela
 MARGIN_STEPS = 8.0  # the margin covers this many steps of the fastest relative motion...
 MARGIN_EDGE_FRACTION = 0.3  # ...but stays below this part of the mean edge length
 CELL_SCALE = 1.5  # grid cell size over max(mean rest edge length, reach)
+CELLS_PER_ITEM = 8  # grid cells allocated per vertex or edge (whichever are more)
+SCAN_BLOCK = 1024  # cells per block of the parallel prefix sum
 SEPARATION_FRACTION = 0.25  # of the missing thickness, per step (proximity pass)
 CCD_GAP_FRACTION = 0.1  # of the thickness, left between a colliding pair (CCD pass)
 PAIRS_PER_VERTEX = 32  # pair list capacity per vertex + per edge
@@ -106,16 +106,26 @@ class SelfCollider:
         self.margin[None] = self.margin0
         self.mean_edge = float(np.linalg.norm(rest[edges[:, 0]] - rest[edges[:, 1]], axis=1).mean())
 
-        # hash grids: vertices by position, edges by midpoint (one entry each)
-        # (sized to the item count: the cloth occupies far fewer cells than it has items,
-        # so buckets seldom hold two cells, and the serial prefix sum below stays short)
-        self.table = 1 << max(10, math.ceil(math.log2(max(n, len(edges)))))
-        self.v_count = ti.field(ti.i32, shape=self.table)
-        self.v_start = ti.field(ti.i32, shape=self.table + 1)
+        # a dense grid over the cloth's bounding box, cells numbered row by row so that
+        # the cells along z are consecutive; vertices by position, edges by midpoint (one
+        # entry each). Its cell count is fixed here: a cloth spread wider gets larger cells.
+        self.cell_capacity = max(1 << 12, CELLS_PER_ITEM * max(n, len(edges)))
+        blocks = (self.cell_capacity + SCAN_BLOCK - 1) // SCAN_BLOCK
+        self.grid_lo = ti.Vector.field(3, float, shape=())
+        self.grid_hi = ti.Vector.field(3, float, shape=())
+        self.grid_dims = ti.Vector.field(3, ti.i32, shape=())
+        self.v_count = ti.field(ti.i32, shape=self.cell_capacity)
+        self.v_start = ti.field(ti.i32, shape=self.cell_capacity + 1)
+        self.v_block = ti.field(ti.i32, shape=blocks)
         self.v_entry = ti.field(ti.i32, shape=max(1, n))
-        self.e_count = ti.field(ti.i32, shape=self.table)
-        self.e_start = ti.field(ti.i32, shape=self.table + 1)
+        self.e_count = ti.field(ti.i32, shape=self.cell_capacity)
+        self.e_start = ti.field(ti.i32, shape=self.cell_capacity + 1)
+        self.e_block = ti.field(ti.i32, shape=blocks)
         self.e_entry = ti.field(ti.i32, shape=max(1, len(edges)))
+        # the entries' end points, in entry order: a cell's edges are read from consecutive
+        # memory by the queries' box tests
+        self.e_p0 = ti.Vector.field(3, float, shape=max(1, len(edges)))
+        self.e_p1 = ti.Vector.field(3, float, shape=max(1, len(edges)))
         self.half_edge = ti.field(float, shape=())
 
         self.capacity = PAIRS_PER_VERTEX * (n + len(edges)) + 1024
@@ -185,12 +195,66 @@ class SelfCollider:
     # ------------------------------------------------------------------ grid helpers
     @ti.func
     def _cell_of(self, p):
-        return ti.floor(p / self.cell[None], ti.i32)
+        """The grid cell (i, j, k) holding point p [m] (outside the grid for far points)."""
+        return ti.floor((p - self.grid_lo[None]) / self.cell[None], ti.i32)
 
     @ti.func
-    def _bucket(self, c):
-        h = (c[0] * 73856093) ^ (c[1] * 19349663) ^ (c[2] * 83492791)
-        return h & (self.table - 1)
+    def _cell_index(self, c):
+        """Row-major number of cell c: cells (i, j, k..k') are consecutive."""
+        dims = self.grid_dims[None]
+        return (c[0] * dims[1] + c[1]) * dims[2] + c[2]
+
+    @ti.func
+    def _cell_range(self, box_lo, box_hi):
+        """The cells [lo, hi] (inclusive) a box overlaps, clipped to the grid."""
+        lo = ti.max(self._cell_of(box_lo), ti.Vector([0, 0, 0]))
+        hi = ti.min(self._cell_of(box_hi), self.grid_dims[None] - 1)
+        return lo, hi
+
+    @ti.func
+    def _fit_grid(self, x, cell):
+        """Grid over the bounding box of x with cells of at least ``cell`` [m], enlarged
+        until the cell count fits the allocation. Returns the cell count."""
+        self.grid_lo[None] = ti.Vector([1e30, 1e30, 1e30])
+        self.grid_hi[None] = ti.Vector([-1e30, -1e30, -1e30])
+        for i in range(self.model.particle_count):
+            ti.atomic_min(self.grid_lo[None], x[i])
+            ti.atomic_max(self.grid_hi[None], x[i])
+        extent = self.grid_hi[None] - self.grid_lo[None]
+        size = cell
+        dims = ti.cast(ti.floor(extent / size), ti.i32) + 1
+        while ti.cast(dims[0], float) * dims[1] * dims[2] > self.cell_capacity:
+            size *= 1.25
+            dims = ti.cast(ti.floor(extent / size), ti.i32) + 1
+        self.cell[None] = size
+        self.grid_dims[None] = dims
+        return dims[0] * dims[1] * dims[2]
+
+    @ti.func
+    def _starts(self, count, start, block, cells):
+        """start[c] = count[0] + ... + count[c-1] for c <= cells (count reset to 0).
+
+        Parallel over blocks of SCAN_BLOCK cells, serial over the block sums.
+        """
+        blocks = (cells + SCAN_BLOCK - 1) // SCAN_BLOCK
+        for b in range(blocks):
+            total = 0
+            for c in range(b * SCAN_BLOCK, ti.min((b + 1) * SCAN_BLOCK, cells)):
+                total += count[c]
+            block[b] = total
+        ti.loop_config(serialize=True)
+        for b in range(blocks):
+            if b == 0:
+                start[cells] = 0
+            offset = start[cells]
+            start[cells] = offset + block[b]
+            block[b] = offset
+        for b in range(blocks):
+            offset = block[b]
+            for c in range(b * SCAN_BLOCK, ti.min((b + 1) * SCAN_BLOCK, cells)):
+                start[c] = offset
+                offset += count[c]
+                count[c] = 0
 
     @ti.func
     def _partners(self, a, b):
@@ -284,13 +348,48 @@ class SelfCollider:
         return (dt * v[i] - self.mean_shift[None]).norm()
 
     @ti.func
+    def _vertex_triangle(self, u, tv, a, b, c, box_lo, box_hi, t_lo, t_hi, tri_move, reach,
+                         sweep_k, x, v, dt):  # fmt: skip
+        """Append vertex u and triangle tv = (a, b, c) if u is within the reach (plus sweep).
+
+        Cheap tests first (Taichi does not short-circuit ``and``): the query box, the swept
+        boxes, the exclusions, then the closest point.
+        """
+        p = x[u]
+        if (p >= box_lo).all() and (p <= box_hi).all():
+            y = p + dt * v[u]
+            if (ti.min(p, y) <= t_hi).all() and (ti.max(p, y) >= t_lo).all():
+                if not self._excluded_vt(u, tv):
+                    w = point_triangle_closest(p, a, b, c)
+                    q = w[0] * a + w[1] * b + w[2] * c
+                    sweep = sweep_k * (self._motion(u, v, dt) + tri_move)
+                    if (p - q).norm() < reach + sweep:
+                        self._append(KIND_VT, ti.Vector([u, tv[0], tv[1], tv[2]]))
+
+    @ti.func
+    def _edge_edge(self, e, s, box_lo, box_hi, a_lo, a_hi, move_a, reach, sweep_k, x, v, dt):
+        """Append edge e and the edge of grid entry s if they are within the reach (plus
+        sweep); cheap tests first, as in :meth:`_vertex_triangle`."""
+        q0, q1 = self.e_p0[s], self.e_p1[s]
+        if (ti.min(q0, q1) <= box_hi).all() and (ti.max(q0, q1) >= box_lo).all():
+            eb = self.edge[self.e_entry[s]]
+            s0, s1 = q0 + dt * v[eb[0]], q1 + dt * v[eb[1]]
+            b_lo = ti.min(ti.min(q0, q1), ti.min(s0, s1))
+            b_hi = ti.max(ti.max(q0, q1), ti.max(s0, s1))
+            if (a_lo <= b_hi).all() and (b_lo <= a_hi).all():
+                ea = self.edge[e]
+                if not self._excluded_ee(ea, eb):
+                    self._edge_pair(ea, eb, x[ea[0]], x[ea[1]], q0, q1, move_a, reach,
+                                    sweep_k, v, dt)  # fmt: skip
+
+    @ti.func
     def rebuild(self, x, v, dt):
         """The candidate list at the current positions (call when ``needs_build``).
 
-        Two hash grids with one entry per item: vertices by position, edges by midpoint.
-        Each triangle looks for vertices in its box grown by the reach; each edge looks
-        for edges whose midpoint lies in its box grown by the reach plus half the longest
-        edge. Every pair is found once.
+        A dense grid over the cloth with one entry per item: vertices by position, edges by
+        midpoint. Each triangle looks for vertices in its box grown by the reach; each edge
+        looks for edges whose midpoint lies in its box grown by the reach plus half the
+        longest edge. Every pair is found once.
         """
         m = self.model
         h = self.thickness[None]
@@ -305,45 +404,42 @@ class SelfCollider:
         fast = 2.0 * self.max_step[None] > 0.4 * self.margin[None]
         self.swept[None] = 1 if fast and sweep_k > 0.0 else 0
         query = reach + 2.0 * sweep_k * self.max_step[None]
-        self.cell[None] = CELL_SCALE * ti.max(self.mean_edge, reach)
+        cells = self._fit_grid(x, CELL_SCALE * ti.max(self.mean_edge, reach))
         self.half_edge[None] = 0.0
         for i in range(m.particle_count):
             self.x_build[i] = x[i]
         for e in range(self.edge_count):
             length = (x[self.edge[e][0]] - x[self.edge[e][1]]).norm()
             ti.atomic_max(self.half_edge[None], 0.5 * length)
-        for b in range(self.table):
-            self.v_count[b] = 0
-            self.e_count[b] = 0
+        for c in range(cells):
+            self.v_count[c] = 0
+            self.e_count[c] = 0
         for i in range(m.particle_count):
-            ti.atomic_add(self.v_count[self._bucket(self._cell_of(x[i]))], 1)
+            ti.atomic_add(self.v_count[self._cell_index(self._cell_of(x[i]))], 1)
         for e in range(self.edge_count):
             mid = 0.5 * (x[self.edge[e][0]] + x[self.edge[e][1]])
-            ti.atomic_add(self.e_count[self._bucket(self._cell_of(mid))], 1)
-        for _ in range(1):  # prefix sums, serial
-            self.v_start[0] = 0
-            self.e_start[0] = 0
-            for b in range(self.table):
-                self.v_start[b + 1] = self.v_start[b] + self.v_count[b]
-                self.e_start[b + 1] = self.e_start[b] + self.e_count[b]
-                self.v_count[b] = 0
-                self.e_count[b] = 0
+            ti.atomic_add(self.e_count[self._cell_index(self._cell_of(mid))], 1)
+        self._starts(self.v_count, self.v_start, self.v_block, cells)
+        self._starts(self.e_count, self.e_start, self.e_block, cells)
         for i in range(m.particle_count):
-            bk = self._bucket(self._cell_of(x[i]))
-            self.v_entry[self.v_start[bk] + ti.atomic_add(self.v_count[bk], 1)] = i
-        # serial, so each bucket lists its edges in increasing order (the query stops early)
+            c = self._cell_index(self._cell_of(x[i]))
+            self.v_entry[self.v_start[c] + ti.atomic_add(self.v_count[c], 1)] = i
+        # serial, so each cell lists its edges in increasing order (the query stops early)
         ti.loop_config(serialize=True)
         for e in range(self.edge_count):
-            bk = self._bucket(self._cell_of(0.5 * (x[self.edge[e][0]] + x[self.edge[e][1]])))
-            self.e_entry[self.e_start[bk] + ti.atomic_add(self.e_count[bk], 1)] = e
+            q0, q1 = x[self.edge[e][0]], x[self.edge[e][1]]
+            c = self._cell_index(self._cell_of(0.5 * (q0 + q1)))
+            s = self.e_start[c] + ti.atomic_add(self.e_count[c], 1)
+            self.e_entry[s] = e
+            self.e_p0[s] = q0
+            self.e_p1[s] = q1
         self.pair_count[None] = 0
         # vertex-triangle
         for t in range(m.tri_count):
             tv = m.tri_indices[t]
             a, b, c = x[tv[0]], x[tv[1]], x[tv[2]]
             box_lo, box_hi = ti.min(a, b, c) - query, ti.max(a, b, c) + query
-            lo = self._cell_of(box_lo)
-            hi = self._cell_of(box_hi)
+            lo, hi = self._cell_range(box_lo, box_hi)
             tri_move = ti.max(self._motion(tv[0], v, dt), self._motion(tv[1], v, dt),
                               self._motion(tv[2], v, dt))  # fmt: skip
             # the triangle's swept box this step, grown by the reach
@@ -352,28 +448,13 @@ class SelfCollider:
             t_hi = ti.max(ti.max(a, b, c), ti.max(ya, yb, yc)) + reach
             for i in range(lo[0], hi[0] + 1):
                 for j in range(lo[1], hi[1] + 1):
-                    for k in range(lo[2], hi[2] + 1):
-                        cid = ti.Vector([i, j, k])
-                        bk = self._bucket(cid)
-                        for s in range(self.v_start[bk], self.v_start[bk + 1]):
-                            u = self.v_entry[s]
-                            p = x[u]
-                            # cheap tests first (Taichi does not short-circuit ``and``): the query
-                            # box, then the vertex's own cell (hash collisions), then the rest
-                            if (p >= box_lo).all() and (p <= box_hi).all():
-                                if (self._cell_of(p) == cid).all():
-                                    y = p + dt * v[u]
-                                    if (ti.min(p, y) <= t_hi).all() and (
-                                        ti.max(p, y) >= t_lo
-                                    ).all():
-                                        if not self._excluded_vt(u, tv):
-                                            w = point_triangle_closest(p, a, b, c)
-                                            q = w[0] * a + w[1] * b + w[2] * c
-                                            sweep = sweep_k * (self._motion(u, v, dt) + tri_move)
-                                            if (p - q).norm() < reach + sweep:
-                                                self._append(
-                                                    KIND_VT, ti.Vector([u, tv[0], tv[1], tv[2]])
-                                                )
+                    # the vertices of cells (i, j, lo..hi) are consecutive entries
+                    row = self._cell_index(ti.Vector([i, j, 0]))
+                    for s in range(self.v_start[row + lo[2]], self.v_start[row + hi[2] + 1]):
+                        self._vertex_triangle(
+                            self.v_entry[s], tv, a, b, c, box_lo, box_hi, t_lo, t_hi,
+                            tri_move, reach, sweep_k, x, v, dt,
+                        )  # fmt: skip
         # edge-edge
         grow = query + self.half_edge[None]
         for e in range(self.edge_count):
@@ -384,32 +465,18 @@ class SelfCollider:
             r0, r1 = p0 + dt * v[ea[0]], p1 + dt * v[ea[1]]
             a_lo = ti.min(ti.min(p0, p1), ti.min(r0, r1)) - reach
             a_hi = ti.max(ti.max(p0, p1), ti.max(r0, r1)) + reach
-            lo = self._cell_of(ti.min(p0, p1) - grow)
-            hi = self._cell_of(ti.max(p0, p1) + grow)
+            lo, hi = self._cell_range(ti.min(p0, p1) - grow, ti.max(p0, p1) + grow)
             for i in range(lo[0], hi[0] + 1):
                 for j in range(lo[1], hi[1] + 1):
-                    for k in range(lo[2], hi[2] + 1):
-                        cid = ti.Vector([i, j, k])
-                        bk = self._bucket(cid)
-                        # each pair once (f > e): the bucket's edges from the last down to e
-                        s = self.e_start[bk + 1] - 1
-                        while s >= self.e_start[bk] and self.e_entry[s] > e:
-                            f = self.e_entry[s]
+                    row = self._cell_index(ti.Vector([i, j, 0]))
+                    for k in range(row + lo[2], row + hi[2] + 1):
+                        # each pair once (f > e): the cell's edges from the last down to e
+                        s = self.e_start[k + 1] - 1
+                        # (Taichi evaluates both sides of ``and``: the index stays >= 0)
+                        while s >= self.e_start[k] and self.e_entry[ti.max(s, 0)] > e:
+                            self._edge_edge(e, s, box_lo, box_hi, a_lo, a_hi, move_a, reach,
+                                            sweep_k, x, v, dt)  # fmt: skip
                             s -= 1
-                            eb = self.edge[f]
-                            q0, q1 = x[eb[0]], x[eb[1]]
-                            # nested: Taichi evaluates both sides of ``and``; cheap tests first
-                            if (ti.min(q0, q1) <= box_hi).all() and (
-                                ti.max(q0, q1) >= box_lo
-                            ).all():
-                                if (self._cell_of(0.5 * (q0 + q1)) == cid).all():
-                                    s0, s1 = q0 + dt * v[eb[0]], q1 + dt * v[eb[1]]
-                                    b_lo = ti.min(ti.min(q0, q1), ti.min(s0, s1))
-                                    b_hi = ti.max(ti.max(q0, q1), ti.max(s0, s1))
-                                    if (a_lo <= b_hi).all() and (b_lo <= a_hi).all():
-                                        if not self._excluded_ee(ea, eb):
-                                            self._edge_pair(ea, eb, p0, p1, q0, q1, move_a, reach,
-                                                            sweep_k, v, dt)  # fmt: skip
         self.needs_build[None] = 0
         self.rebuilds[None] += 1
 
