@@ -1,12 +1,14 @@
 """Step time without collision, with body collision, and with self-collision too.
 
-Usage: python benchmarks/bench_collision.py [--vertices 10000] [--settle 0.3]
+Usage: python benchmarks/bench_collision.py [--vertices 10000] [--settle 0.3 1.0 3.0]
 
 The sheet (1.2 x 1.2 m, jersey) starts flat above the shoulders and falls onto the default
-mannequin (~17k triangles). After ``--settle`` simulated seconds, so that most vertices are
-near the body, we time solver steps with the body collider, with the body collider and
-self-collision, and the same steps with none. Targets (issue 4): body collision adds at
-most 50 % to the step, self-collision at most 150 %.
+mannequin (~17k triangles). After each ``--settle`` time (simulated seconds of draping with
+self-collision: at 0.3 s the sides still fall at up to 5 m/s, at 3 s the sheet hangs in
+folds around the body, its fastest vertex below 0.6 m/s), we time solver steps with the
+body collider, with the body collider and self-collision, and the same steps with none.
+Targets (issue 4): body collision adds at most 50 % to the step, self-collision at most
+150 %.
 """
 
 import argparse
@@ -36,10 +38,25 @@ def spec(n_vertices: int, with_body: bool, with_self: bool = False):
     return scene_from_dict(data, source="bench")
 
 
+def measure(runs, steps: int) -> dict:
+    """Best-of-five ms per step of each scene, interleaved (this VM varies by +-15 %)."""
+    results = {name: [] for name, _ in runs}
+    for _ in range(5):
+        for name, sc in runs:
+            ti.sync()
+            t0 = time.perf_counter()
+            sc.solver.advance(sc.state, sc.control, sc.dt_s, steps // 5)
+            ti.sync()
+            results[name].append((time.perf_counter() - t0) / (steps // 5))
+    return {k: 1e3 * min(v) for k, v in results.items()}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--vertices", type=int, default=10000)
-    ap.add_argument("--settle", type=float, default=0.3)
+    ap.add_argument("--settle", type=float, nargs="+", default=[0.3, 1.0, 3.0],
+                    help="simulated seconds of draping (with self-collision) before each "
+                    "measurement (default: 0.3 1.0 3.0, falling to draped)")  # fmt: skip
     ap.add_argument("--steps", type=int, default=500)
     ap.add_argument("--profile", action="store_true",
                     help="then also 20 self-collision steps under Taichi's kernel profiler: "
@@ -50,26 +67,10 @@ def main() -> None:
     body = build_scene(spec(args.vertices, True))
     free = build_scene(spec(args.vertices, False))
     free.dt_s = body.dt_s = both.dt_s
-    settle = round(args.settle / both.dt_s)
-    both.solver.advance(both.state, both.control, both.dt_s, settle)
-    for sc in (free, body):
-        sc.state.set(both.state.positions(), both.state.velocities())
     runs = (("no collision", free), ("body collision", body), ("body + self", both))
-    results = {name: [] for name, _ in runs}
     for _, sc in runs:
         sc.solver.advance(sc.state, sc.control, sc.dt_s, 2)  # compile
     sc_self = both.model.self_collider
-    rebuilds0 = sc_self.rebuilds[None]
-    for _ in range(5):  # interleaved, best of five: this VM's timings vary by ±15 %
-        for name, sc in runs:
-            ti.sync()
-            t0 = time.perf_counter()
-            sc.solver.advance(sc.state, sc.control, sc.dt_s, args.steps // 5)
-            ti.sync()
-            results[name].append((time.perf_counter() - t0) / (args.steps // 5))
-    results = {k: min(v) for k, v in results.items()}
-    n = body.model.particle_count
-    k = body.model.colliders[0].tri_count
     collider = body.model.colliders[0]
     verts = collider.body_x.to_numpy().astype(float)
     collider.update(verts * 1.01)  # a resize, as a slider would do (first call warms up)
@@ -78,19 +79,27 @@ def main() -> None:
         collider.update(verts)
     ti.sync()
     rebuild = (time.perf_counter() - t0) / 5
-    print(f"sheet: {n} vertices; mannequin: {k} triangles; dt = {body.dt_s:.3g} s; "
-          f"after {args.settle} s of draping")  # fmt: skip
-    for name, t in results.items():
-        print(f"  {name:15s} {t * 1e3:8.2f} ms/step")
-    extra = results["body collision"] / results["no collision"] - 1.0
-    extra_self = results["body + self"] / results["no collision"] - 1.0
-    print(f"  body collision adds {100 * extra:.0f} % (target <= 50 %); grid rebuild "
-          f"{rebuild * 1e3:.1f} ms")  # fmt: skip
-    print(
-        f"  self-collision too adds {100 * extra_self:.0f} % (target <= 150 %); "
-        f"{sc_self.pair_count[None]} candidate pairs, "
-        f"{sc_self.rebuilds[None] - rebuilds0} list rebuilds in {args.steps + 2} steps"
-    )
+    print(f"sheet: {body.model.particle_count} vertices; mannequin: {collider.tri_count} "
+          f"triangles; dt = {both.dt_s:.3g} s; body grid rebuild {rebuild * 1e3:.1f} ms; "
+          "ms per step, targets: body adds <= 50 %, self <= 150 %")  # fmt: skip
+    print(f"{'draped for':>10s} {'none':>8s} {'body':>8s} {'+ self':>8s} {'body adds':>10s} "
+          f"{'self adds':>10s} {'pairs':>7s} {'rebuilds':>9s}")  # fmt: skip
+    simulated = 0.0
+    for t_settle in args.settle:
+        steps = max(0, round((t_settle - simulated) / both.dt_s))
+        both.solver.advance(both.state, both.control, both.dt_s, steps)
+        simulated += steps * both.dt_s
+        for sc in (free, body):
+            sc.state.set(both.state.positions(), both.state.velocities())
+        rebuilds0 = sc_self.rebuilds[None]
+        ms = measure(runs, args.steps)
+        simulated += args.steps // 5 * 5 * both.dt_s
+        extra = ms["body collision"] / ms["no collision"] - 1.0
+        extra_self = ms["body + self"] / ms["no collision"] - 1.0
+        print(f"{t_settle:9.1f}s {ms['no collision']:8.2f} {ms['body collision']:8.2f} "
+              f"{ms['body + self']:8.2f} {100 * extra:9.0f}% {100 * extra_self:9.0f}% "
+              f"{sc_self.pair_count[None]:7d} {sc_self.rebuilds[None] - rebuilds0:5d}/"
+              f"{args.steps // 5 * 5}", flush=True)  # fmt: skip
     if args.profile:
         ti.profiler.clear_kernel_profiler_info()
         both.solver.advance(both.state, both.control, both.dt_s, 20)

@@ -24,10 +24,12 @@ from sandbox.sim import forces
 from sandbox.sim.model import Control, Model, State  # noqa: F401 (used in annotations)
 
 # On the CPU, up to this many particles ``advance`` fuses steps into one serial kernel
-# launch (measured on 2 cores: serial 4.2-4.8 M vertex-steps/s up to 18k vertices, the
-# parallel path 2.7-3.5 M; at 70k the parallel path wins, 4.8 against 2.7; see
-# benchmarks/bench_step.py). On a GPU every step is a parallel launch.
-FUSED_PARTICLE_LIMIT = 30000
+# launch, which saves the parallel path's launch and thread start-up per step. Measured on
+# 2 cores (2026-12-01, benchmarks/bench_step.py, M vertex-steps/s serial fused vs
+# parallel): 2.3k vertices 7.5 vs 5.6, 4.5k 7.4 vs 8.2, 9k 7.3 vs 8.2, 18k 7.2 vs 11.8.
+# (An earlier session measured the parallel path slower up to 18k on a busier VM.) On a
+# GPU every step is a parallel launch.
+FUSED_PARTICLE_LIMIT = 4000
 NO_STEP = 2**31 - 1
 
 
