@@ -303,25 +303,18 @@ class SelfCollider:
 
     # ------------------------------------------------------------------ per-step pieces
     @ti.func
-    def _drift_from_build(self, x, v, dt, with_corr):
-        """max_i |x_i + dt v_i − x_b,i − c| with c the mean of those displacements [m].
+    def _drift_from_build(self, x, v, dt):
+        """max_i |x_i + dt (v_i + corr_i) − x_b,i − c| [m], c = ``drift_mean`` (the mean of
+        those displacements before the passes, from :meth:`prepare`).
 
         Pair distances change only through relative motion, so the cloth moving as a whole
-        (falling) does not invalidate the candidate list.
+        (falling) does not invalidate the candidate list; any common shift c may be taken
+        out, and the mean before the passes' small impulses is close to the best one.
         """
-        n = self.model.particle_count
-        self.drift_mean[None] = ti.Vector([0.0, 0.0, 0.0])
-        for i in range(n):
-            u = x[i] + dt * v[i] - self.x_build[i]
-            if with_corr:
-                u += dt * self.corr[i]
-            self.drift_mean[None] += u / n
         self.spread[None] = 0.0
-        for i in range(n):
-            u = x[i] + dt * v[i] - self.x_build[i]
-            if with_corr:
-                u += dt * self.corr[i]
-            ti.atomic_max(self.spread[None], (u - self.drift_mean[None]).norm())
+        for i in range(self.model.particle_count):
+            u = x[i] + dt * (v[i] + self.corr[i]) - self.x_build[i] - self.drift_mean[None]
+            ti.atomic_max(self.spread[None], u.norm())
         return self.spread[None]
 
     @ti.func
@@ -332,14 +325,21 @@ class SelfCollider:
         motion [m], the motion a rebuilt list must cover.
         """
         n = self.model.particle_count
+        # two passes (means, then maxima) for the step's motion and the drift since x_b
         self.mean_shift[None] = ti.Vector([0.0, 0.0, 0.0])
+        self.drift_mean[None] = ti.Vector([0.0, 0.0, 0.0])
         for i in range(n):
             self.corr[i] = ti.Vector([0.0, 0.0, 0.0])
+            self.touched[i] = 0
             self.mean_shift[None] += dt * v[i] / n
+            self.drift_mean[None] += (x[i] + dt * v[i] - self.x_build[i]) / n
         self.max_step[None] = 0.0
+        self.spread[None] = 0.0
         for i in range(n):
             ti.atomic_max(self.max_step[None], (dt * v[i] - self.mean_shift[None]).norm())
-        if self._drift_from_build(x, v, dt, False) > 0.4 * self.margin[None]:
+            u = x[i] + dt * v[i] - self.x_build[i] - self.drift_mean[None]
+            ti.atomic_max(self.spread[None], u.norm())
+        if self.spread[None] > 0.4 * self.margin[None]:
             self.needs_build[None] = 1
 
     @ti.func
@@ -624,9 +624,7 @@ class SelfCollider:
         eps = 1e-6 + 1e-3 * h
         count = ti.min(self.pair_count[None], self.capacity)
         self.unresolved[None] = 0
-        for i in range(self.model.particle_count):
-            self.touched[i] = 0
-        for p in range(count):  # parallel
+        for p in range(count):  # parallel (``touched`` was cleared by ``prepare``)
             may = self._reach(self.pair_kind[p], self.pair[p], v, dt) >= self.pair_dist[p] - eps
             self.pair_hit[p] = 1 if may else 0
         for _ in range(1):  # serial
@@ -658,7 +656,7 @@ class SelfCollider:
         # the candidate list covers the step only if no vertex ends beyond margin / 2 (or
         # if it was built for this step's own motion: rebuilt again at the next step)
         self.covered[None] = 1
-        if self._drift_from_build(x, v, dt, True) > 0.5 * self.margin[None]:
+        if self._drift_from_build(x, v, dt) > 0.5 * self.margin[None]:
             self.needs_build[None] = 1
             if self.swept[None] == 0:
                 self.covered[None] = 0
