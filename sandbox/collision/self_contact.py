@@ -26,7 +26,7 @@ Candidate pairs are kept in a list (a Verlet list): all pairs closer than h + ma
 positions x_b of the last rebuild. Moving every vertex by at most margin/2 changes any
 pair's distance by at most margin, so as long as x(t) and x(t+dt) stay within margin/2 of
 x_b, no pair outside the list can come within h during the step. The list is rebuilt
-(hash grid of vertices and edges, in Taichi) when a vertex would leave that bound; the
+(a dense grid of vertices and edge midpoints, in Taichi) when a vertex would leave that bound; the
 margin grows with the step's largest displacement so large steps stay covered.
 
 Excluded pairs: a vertex and a triangle that contains it, two edges with a common vertex,
