@@ -221,6 +221,25 @@ class BodyCollider:
 
     # ------------------------------------------------------------------ response
     @ti.func
+    def _cells_to_visit(self, lo, hi):
+        """How many cells of the box [lo, hi] a query visits (at most MAX_CELLS_PER_QUERY)."""
+        span = hi - lo + 1
+        return ti.min(span[0] * span[1] * span[2], MAX_CELLS_PER_QUERY)
+
+    @ti.func
+    def _next_cell(self, cell, lo, hi):
+        """The cell after ``cell`` in the box [lo, hi], k fastest (no divisions: cheaper
+        than ``ti.ndrange``'s index arithmetic in these small loops)."""
+        nxt = cell + ti.Vector([0, 0, 1])
+        if nxt[2] > hi[2]:
+            nxt[2] = lo[2]
+            nxt[1] += 1
+            if nxt[1] > hi[1]:
+                nxt[1] = lo[1]
+                nxt[0] += 1
+        return nxt
+
+    @ti.func
     def poke(self, a, b, c):
         """The deepest body vertex poking through the cloth triangle (a, b, c) [m].
 
@@ -247,27 +266,24 @@ class BodyCollider:
             box_hi = ti.max(a, b, c) + h
             lo = self._cell_of(box_lo)
             hi = self._cell_of(box_hi)
-            visited = 0
-            for i in range(lo[0], hi[0] + 1):
-                for j in range(lo[1], hi[1] + 1):
-                    for k in range(lo[2], hi[2] + 1):
-                        visited += 1
-                        if visited <= MAX_CELLS_PER_QUERY:
-                            cid = self._cell_index(ti.Vector([i, j, k]))
-                            for e in range(self.v_cell_start[cid], self.v_cell_start[cid + 1]):
-                                vid = self.v_entries[e]
-                                p = self.body_x[vid]
-                                if (p >= box_lo).all() and (p <= box_hi).all():
-                                    n = nc
-                                    if nc.dot(self.vertex_normal[vid]) < 0.0:
-                                        n = -nc
-                                    s = (p - a).dot(n)
-                                    if s > -h and s < 0.25 * longest:
-                                        w = _barycentric(p - s * n, a, b, c)
-                                        if w.min() > 0.0 and s + h > best:
-                                            best = s + h
-                                            best_n = n
-                                            best_w = w
+            cell = lo
+            for _ in range(self._cells_to_visit(lo, hi)):
+                cid = self._cell_index(cell)
+                for e in range(self.v_cell_start[cid], self.v_cell_start[cid + 1]):
+                    vid = self.v_entries[e]
+                    p = self.body_x[vid]
+                    if (p >= box_lo).all() and (p <= box_hi).all():
+                        n = nc
+                        if nc.dot(self.vertex_normal[vid]) < 0.0:
+                            n = -nc
+                        s = (p - a).dot(n)
+                        if s > -h and s < 0.25 * longest:
+                            w = _barycentric(p - s * n, a, b, c)
+                            if w.min() > 0.0 and s + h > best:
+                                best = s + h
+                                best_n = n
+                                best_w = w
+                cell = self._next_cell(cell, lo, hi)
         return best, best_n, best_w
 
     @ti.func
@@ -284,41 +300,38 @@ class BodyCollider:
         best_d = 1e30
         best_q = ti.Vector([0.0, 0.0, 0.0])
         best_pn = ti.Vector([0.0, 0.0, 0.0])
-        visited = 0
-        for i in range(lo[0], hi[0] + 1):
-            for j in range(lo[1], hi[1] + 1):
-                for k in range(lo[2], hi[2] + 1):
-                    visited += 1
-                    if visited <= MAX_CELLS_PER_QUERY:
-                        cid = self._cell_index(ti.Vector([i, j, k]))
-                        for e in range(self.cell_start[cid], self.cell_start[cid + 1]):
-                            t = self.cell_entries[e]
-                            n = self.tri_normal[t]
-                            s0 = n.dot(x) - self.tri_offset[t]
-                            s1 = n.dot(x1) - self.tri_offset[t]
-                            # a crossing needs the two ends on opposite sides of the plane, and
-                            # proximity needs the predicted position within h of the plane
-                            if s0 * s1 <= 0.0 or ti.abs(s1) <= h:
-                                a = self.body_x[self.tri[t][0]]
-                                b = self.body_x[self.tri[t][1]]
-                                c = self.body_x[self.tri[t][2]]
-                                if s0 * s1 <= 0.0:
-                                    hit, s = segment_triangle(x, x1, a, b, c)
-                                    if hit and s < best_t:
-                                        best_t = s
-                                        best_n = n
-                                        if ti.static(not self.closed):
-                                            if s0 < 0.0:
-                                                best_n = -n
-                                reach = self.tri_radius[t] + h
-                                near = (x1 - self.tri_centre[t]).norm_sqr() <= reach * reach
-                                if near or s0 * s1 <= 0.0:
-                                    q = closest_point_on_triangle(x1, a, b, c)
-                                    d = (x1 - q).norm()
-                                    if d < best_d:
-                                        best_d = d
-                                        best_q = q
-                                        best_pn = n
+        cell = lo
+        for _ in range(self._cells_to_visit(lo, hi)):
+            cid = self._cell_index(cell)
+            for e in range(self.cell_start[cid], self.cell_start[cid + 1]):
+                t = self.cell_entries[e]
+                n = self.tri_normal[t]
+                s0 = n.dot(x) - self.tri_offset[t]
+                s1 = n.dot(x1) - self.tri_offset[t]
+                # a crossing needs the two ends on opposite sides of the plane, and
+                # proximity needs the predicted position within h of the plane
+                if s0 * s1 <= 0.0 or ti.abs(s1) <= h:
+                    a = self.body_x[self.tri[t][0]]
+                    b = self.body_x[self.tri[t][1]]
+                    c = self.body_x[self.tri[t][2]]
+                    if s0 * s1 <= 0.0:
+                        hit, s = segment_triangle(x, x1, a, b, c)
+                        if hit and s < best_t:
+                            best_t = s
+                            best_n = n
+                            if ti.static(not self.closed):
+                                if s0 < 0.0:
+                                    best_n = -n
+                    reach = self.tri_radius[t] + h
+                    near = (x1 - self.tri_centre[t]).norm_sqr() <= reach * reach
+                    if near or s0 * s1 <= 0.0:
+                        q = closest_point_on_triangle(x1, a, b, c)
+                        d = (x1 - q).norm()
+                        if d < best_d:
+                            best_d = d
+                            best_q = q
+                            best_pn = n
+            cell = self._next_cell(cell, lo, hi)
         v_new = v
         if dt <= 0.0:  # a zero step (the compile warm-up) moves nothing: nothing to revise
             best_t = 2.0
