@@ -140,8 +140,9 @@ def _with(collider=None, collision=None):
 
 
 # ---------------------------------------------------------------- two pieces, one step
-def two_squares(*, pinned_bottom: bool, speed: float):
-    """A 20 cm square in the xz plane at y = 0 and a 6 cm square 2 cm above, moving down."""
+def two_squares(*, pinned_bottom: bool, speed: float, far_piece_m: float | None = None):
+    """A 20 cm square in the xz plane at y = 0 and a 6 cm square 2 cm above, moving down
+    (and, with ``far_piece_m``, a third 6 cm square that far away along x)."""
     builder = ModelBuilder()
     mat = material_from_spec("jersey", where="test")
     uv, tris = mesh_grid(0.2, 0.2, 0.02)
@@ -152,6 +153,9 @@ def two_squares(*, pinned_bottom: bool, speed: float):
     uv2, tris2 = mesh_grid(0.06, 0.06, 0.02)
     builder.add_cloth(name="top", pattern_uv=uv2, triangles=tris2, material=mat, rotation=rot,
                       translation=(-0.03, 0.02, -0.03), velocity=(0.0, -speed, 0.0))  # fmt: skip
+    if far_piece_m is not None:
+        builder.add_cloth(name="far", pattern_uv=uv2, triangles=tris2, material=mat,
+                          rotation=rot, translation=(far_piece_m, 0.0, 0.0))  # fmt: skip
     model = builder.finalize(bending=False)
     model.self_collider = SelfCollider(model, thickness_m=0.003, friction=0.3)
     return model, len(uv)
@@ -177,6 +181,24 @@ def test_fast_piece_does_not_pass_through_a_sheet_in_one_large_step(pinned):
         assert x[n_bottom:, 1].min() > 0.0
     else:  # impulses between free vertices conserve momentum
         assert np.allclose(momentum(model, state.velocities()), p0, atol=1e-12)
+
+
+def test_a_piece_far_away_coarsens_the_grid_and_contact_still_holds():
+    """The candidate grid spans the cloth's bounding box with a fixed cell count: a piece
+    2 km away makes its cells coarse, yet the fast piece still stops on the
+    sheet."""
+    model, n_bottom = two_squares(pinned_bottom=True, speed=10.0, far_piece_m=2000.0)
+    sc = model.self_collider
+    solver = SymplecticEulerSolver(model)
+    state = model.state()
+    solver.step(state, state, model.control(gravity=(0.0, 0.0, 0.0)), 0.01)
+    x = state.positions()
+    assert sc.cell[None] > 0.1  # metres: far coarser than the 2 cm mesh (0.03 m alone)
+    assert sc.pair_count[None] > 0
+    assert np.isfinite(x).all()
+    assert count_intersecting_pairs(x, model.tri_indices_np) == 0
+    n_top = (len(x) - n_bottom) // 2  # the moving piece, then the far one (same mesh)
+    assert x[n_bottom : n_bottom + n_top, 1].min() > 0.0
 
 
 def test_rigid_impact_zones_resolve_what_the_impulses_leave():

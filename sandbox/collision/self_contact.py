@@ -53,6 +53,7 @@ MARGIN_EDGE_FRACTION = 0.3  # ...but stays below this part of the mean edge leng
 CELL_SCALE = 1.5  # grid cell size over max(mean rest edge length, reach)
 CELLS_PER_ITEM = 8  # grid cells allocated per vertex or edge (whichever are more)
 SCAN_BLOCK = 1024  # cells per block of the parallel prefix sum
+MAX_GRID_EXTENT_M = 1e4  # the grid covers at most this much of the cloth's bounding box
 SEPARATION_FRACTION = 0.25  # of the missing thickness, per step (proximity pass)
 CCD_GAP_FRACTION = 0.1  # of the thickness, left between a colliding pair (CCD pass)
 PAIRS_PER_VERTEX = 32  # pair list capacity per vertex + per edge
@@ -200,8 +201,10 @@ class SelfCollider:
 
     @ti.func
     def _cell_index(self, c):
-        """Row-major number of cell c: cells (i, j, k..k') are consecutive."""
+        """Row-major number of cell c (clamped into the grid): cells (i, j, k..k') are
+        consecutive."""
         dims = self.grid_dims[None]
+        c = ti.max(ti.min(c, dims - 1), ti.Vector([0, 0, 0]))
         return (c[0] * dims[1] + c[1]) * dims[2] + c[2]
 
     @ti.func
@@ -220,12 +223,14 @@ class SelfCollider:
         for i in range(self.model.particle_count):
             ti.atomic_min(self.grid_lo[None], x[i])
             ti.atomic_max(self.grid_hi[None], x[i])
-        extent = self.grid_hi[None] - self.grid_lo[None]
+        # (counted in floats, and a cloth flung absurdly far still gets a grid that fits)
+        extent = ti.min(self.grid_hi[None] - self.grid_lo[None], MAX_GRID_EXTENT_M)
         size = cell
-        dims = ti.cast(ti.floor(extent / size), ti.i32) + 1
-        while ti.cast(dims[0], float) * dims[1] * dims[2] > self.cell_capacity:
+        span = ti.floor(extent / size) + 1.0
+        while span[0] * span[1] * span[2] > self.cell_capacity:
             size *= 1.25
-            dims = ti.cast(ti.floor(extent / size), ti.i32) + 1
+            span = ti.floor(extent / size) + 1.0
+        dims = ti.cast(span, ti.i32)
         self.cell[None] = size
         self.grid_dims[None] = dims
         return dims[0] * dims[1] * dims[2]
