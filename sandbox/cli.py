@@ -307,13 +307,15 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "demo":
             if args.scene:
                 return cmd_run(default_scene_path(), args)
-            from sandbox.mannequin.measurements import KEYS
-
-            for k in KEYS:
-                setattr(args, k, None)
-            args.list, args.size, args.fabric, args.time_limit = False, 12, None, None
-            args.no_self_collision = args.fast_sew = False
-            return cmd_drape(args)
+            # the demo is `drape` with its defaults: parsed by drape's own parser, so every
+            # option drape gains has its default here too
+            drape = [
+                "drape", args.garment, "--out", str(args.out), "--edge-cm", str(args.edge_cm),
+                "--arch", args.arch,
+            ]  # fmt: skip
+            drape += ["--no-render"] * args.no_render + ["--float64"] * args.float64
+            drape += ["--quiet"] * args.quiet
+            return cmd_drape(parser.parse_args(drape))
         if args.command == "validate":
             from sandbox.validate.cantilever import main as cantilever_main
 

@@ -28,3 +28,17 @@ def test_import_garmentcode_and_bad_input(capsys, tmp_path):
     assert json.loads(out.read_text())["format"] == "sandbox-pattern/1"
     assert main(["check-pattern", str(tmp_path / "missing.json")]) == 2
     assert "missing.json" in capsys.readouterr().err
+
+
+def test_demo_is_drape_with_its_defaults(monkeypatch, tmp_path):
+    """`make demo` runs `demo`, which must hand `drape` a complete set of its options (it
+    once broke when drape gained --integrator)."""
+    import sandbox.cli as cli
+
+    seen = {}
+    monkeypatch.setattr(cli, "cmd_drape", lambda args: seen.update(vars(args)) or 0)
+    assert main(["demo", "--out", str(tmp_path), "--edge-cm", "4", "--no-render", "-q"]) == 0
+    assert seen["garment"] == cli.DEFAULT_GARMENT and seen["list"] is False
+    assert seen["edge_cm"] == 4.0 and seen["out"] == tmp_path and seen["no_render"]
+    assert seen["integrator"] == "symplectic_euler" and seen["fabric"] is None
+    assert seen["time_limit"] is None and not seen["no_self_collision"]
