@@ -141,6 +141,19 @@ class SelfCollider:
         self.touched = ti.field(ti.i32, shape=max(1, n))  # got a CCD impulse this step
         self.pair_count = ti.field(ti.i32, shape=())
         self.overflow = ti.field(ti.i32, shape=())
+        # the list in a fixed order (the parallel queries append in any order, and the
+        # serial impulses depend on it): a counting sort by the pair's first feature (its
+        # vertex, or its first edge's first end point), then by the rest within each
+        keys = n + max(n, len(edges))
+        self.sort_count = ti.field(ti.i32, shape=keys)
+        self.sort_start = ti.field(ti.i32, shape=keys + 1)
+        self.sort_block = ti.field(ti.i32, shape=(keys + SCAN_BLOCK - 1) // SCAN_BLOCK)
+        self.sort_pair = ti.Vector.field(4, ti.i32, shape=self.capacity)
+        self.sort_kind = ti.field(ti.i32, shape=self.capacity)
+        # a list built for one fast step holds the pairs that these displacements dt v [m]
+        # (the velocities before the passes) could bring together
+        self.build_step = ti.Vector.field(3, float, shape=max(1, n))
+        self.excess = ti.field(float, shape=())
 
         self.x_build = ti.Vector.field(3, float, shape=max(1, n))
         self.corr = ti.Vector.field(3, float, shape=max(1, n))  # position correction [m/s]
@@ -336,6 +349,8 @@ class SelfCollider:
         for i in range(n):
             self.corr[i] = ti.Vector([0.0, 0.0, 0.0])
             self.touched[i] = 0
+        ti.loop_config(serialize=True)  # sums in a fixed order: the same run, the same result
+        for i in range(n):
             self.mean_shift[None] += dt * v[i] / n
             self.drift_mean[None] += (x[i] + dt * v[i] - self.x_build[i]) / n
         self.max_step[None] = 0.0
@@ -482,8 +497,68 @@ class SelfCollider:
                             self._edge_edge(e, s, box_lo, box_hi, a_lo, a_hi, move_a, reach,
                                             sweep_k, x, v, dt)  # fmt: skip
                             s -= 1
+        for i in range(m.particle_count):
+            self.build_step[i] = dt * v[i]
+        self._order_pairs()
         self.needs_build[None] = 0
         self.rebuilds[None] += 1
+
+    @ti.func
+    def _pair_key(self, kind, idx):
+        """Sort key of a pair: its vertex (vertex-triangle), or n + its first edge's first
+        end point (edge-edge)."""
+        key = idx[0]
+        if kind == KIND_EE:
+            key = self.model.particle_count + idx[0]
+        return key
+
+    @ti.func
+    def _before(self, a, ka, b, kb):
+        """Is pair (ka, a) ordered before pair (kb, b)? Kind, then indices 0..3."""
+        less = ka < kb
+        if ka == kb:
+            decided = False
+            for k in ti.static(range(4)):
+                if not decided and a[k] != b[k]:
+                    less = a[k] < b[k]
+                    decided = True
+        return less
+
+    @ti.func
+    def _order_pairs(self):
+        """Put the candidate list in a fixed order, whatever order the threads appended
+        in (so the same run gives the same result): counting sort by :meth:`_pair_key`,
+        then insertion sort within each key."""
+        count = ti.min(self.pair_count[None], self.capacity)
+        keys = self.sort_count.shape[0]
+        for k in range(keys):
+            self.sort_count[k] = 0
+        for p in range(count):
+            ti.atomic_add(self.sort_count[self._pair_key(self.pair_kind[p], self.pair[p])], 1)
+        self._starts(self.sort_count, self.sort_start, self.sort_block, keys)
+        for p in range(count):
+            k = self._pair_key(self.pair_kind[p], self.pair[p])
+            slot = self.sort_start[k] + ti.atomic_add(self.sort_count[k], 1)
+            self.sort_pair[slot] = self.pair[p]
+            self.sort_kind[slot] = self.pair_kind[p]
+        for k in range(keys):
+            lo, hi = self.sort_start[k], self.sort_start[k + 1]
+            for i in range(lo, hi):  # insertion sort of the (few) pairs of this key
+                j = i
+                moving = True
+                while moving:  # (Taichi evaluates both sides of ``and``: j - 1 >= lo here)
+                    moving = False
+                    if j > lo:
+                        a, ka = self.sort_pair[j], self.sort_kind[j]
+                        b, kb = self.sort_pair[j - 1], self.sort_kind[j - 1]
+                        if self._before(a, ka, b, kb):
+                            self.sort_pair[j], self.sort_kind[j] = b, kb
+                            self.sort_pair[j - 1], self.sort_kind[j - 1] = a, ka
+                            j -= 1
+                            moving = True
+            for i in range(lo, hi):
+                self.pair[i] = self.sort_pair[i]
+                self.pair_kind[i] = self.sort_kind[i]
 
     @ti.func
     def _geometry(self, kind, p0, p1, p2, p3):
@@ -664,6 +739,18 @@ class SelfCollider:
         if self._drift_from_build(x, v, dt) > 0.5 * self.margin[None]:
             self.needs_build[None] = 1
             if self.swept[None] == 0:
+                self.covered[None] = 0
+        if self.swept[None] == 1:
+            # a list built for this step's motion holds the pairs that the velocities before
+            # the passes could bring together (swept boxes); the impulses changed them: it
+            # still covers the step only if no vertex ends more than half the margin away
+            # from where those velocities took it
+            self.excess[None] = 0.0
+            for i in range(self.model.particle_count):
+                u = dt * (v[i] + self.corr[i]) - self.build_step[i]
+                ti.atomic_max(self.excess[None], u.norm())
+            if self.excess[None] > 0.5 * self.margin[None]:
+                self.needs_build[None] = 1
                 self.covered[None] = 0
         self.swept[None] = 0
 
