@@ -144,7 +144,7 @@ class SelfCollider:
         # the list in a fixed order (the parallel queries append in any order, and the
         # serial impulses depend on it): a counting sort by the pair's first feature (its
         # vertex, or its first edge's first end point), then by the rest within each
-        keys = n + max(n, len(edges))
+        keys = 2 * max(1, n)  # vertex keys below n, edge keys n + end point below 2n
         self.sort_count = ti.field(ti.i32, shape=keys)
         self.sort_start = ti.field(ti.i32, shape=keys + 1)
         self.sort_block = ti.field(ti.i32, shape=(keys + SCAN_BLOCK - 1) // SCAN_BLOCK)
