@@ -58,7 +58,10 @@ def test_anchor_goes_to_the_landmark_height(body):
     placed = place_pattern(pattern, meshes, pb)
     pts = meshes["front"].points
     top = np.abs(pts[:, 1] - pts[:, 1].max()) < 1e-9  # the waist edge: y = 55 cm = anchor
-    assert np.allclose(placed["front"][top, 1], m.landmarks["waist_front"][1], atol=2e-3)
+    # the relaxation after the wrap lets the corners (the side seams' tops) settle a little
+    waist_y = placed["front"][top, 1]
+    assert abs(np.median(waist_y) - m.landmarks["waist_front"][1]) < 2e-3
+    assert np.allclose(waist_y, m.landmarks["waist_front"][1], atol=1.2e-2)
     # panel x runs towards the body's left (+X) on the front, towards its right on the back
     right_end = np.argmax(pts[:, 0])
     assert placed["front"][right_end, 0] > 0.1
@@ -139,3 +142,34 @@ def test_bad_placement_input():
                           "landmark": "waist_front"}, pb)  # fmt: skip
     with pytest.raises(SandboxError, match="shape"):
         place_panel(np.zeros((3, 3)), {"translation": [0, 0, 0]}, pb)
+
+
+def _start_stretch(meshes, placed) -> np.ndarray:
+    """Principal stretches (m, 2) of every placed triangle against its pattern shape."""
+    out = []
+    for name, mesh in meshes.items():
+        t, uv, x = mesh.triangles, mesh.points, placed[name]
+        rest = np.stack([uv[t[:, 1]] - uv[t[:, 0]], uv[t[:, 2]] - uv[t[:, 0]]], 2)
+        world = np.stack([x[t[:, 1]] - x[t[:, 0]], x[t[:, 2]] - x[t[:, 0]]], 2)
+        out.append(np.linalg.svd(world @ np.linalg.inv(rest), compute_uv=False))
+    return np.vstack(out)
+
+
+def test_wrapped_panels_start_nearly_unstretched(monkeypatch):
+    """The relaxation after the wrap: the T-shirt's sleeves wrapped row by row round the arm
+    start up to 2.4 x stretched next to the armpit; relaxed, no triangle is stretched by
+    more than 25 % and at most 5 % of them by more than 10 %, with the clearance kept."""
+    import sandbox.pattern.place as place
+    from sandbox.scene.drape import resolve_pattern
+
+    m = build_mannequin(size=12)
+    pb = PlacementBody(m)
+    pattern = resolve_pattern("t-shirt", m)
+    meshes = mesh_pattern(pattern, 0.03)
+    s = _start_stretch(meshes, place_pattern(pattern, meshes, pb))
+    assert s[:, 0].max() < 1.25
+    assert np.mean((s[:, 0] > 1.1) | (s[:, 1] < 0.9)) < 0.05
+    _check(pattern, (m, pb, body_inside_check(m.vertices, m.triangles)))
+    monkeypatch.setattr(place, "RELAX_ROUNDS", 0)  # the wrap alone
+    raw = _start_stretch(meshes, place_pattern(pattern, meshes, pb))
+    assert raw[:, 0].max() > 2.0

@@ -52,6 +52,11 @@ class SymplecticEulerSolver:
         self.face_bodies = [c for c in model.colliders if getattr(c, "face_pass", False)]
         self.has_faces = bool(self.face_bodies) and model.tri_count > 0
         self.face_dv = self.face_count = None
+        # the bodies' outward push of this step [m/s]: it moves a vertex, it is not kept
+        self.has_bodies = len(model.colliders) > 0
+        self.push = None
+        if self.has_bodies:
+            self.push = ti.Vector.field(3, float, shape=max(1, model.particle_count))
         if self.has_faces:
             self.face_dv = ti.Vector.field(3, float, shape=max(1, model.particle_count))
             self.face_count = ti.field(ti.i32, shape=max(1, model.particle_count))
@@ -250,18 +255,26 @@ class SymplecticEulerSolver:
 
     @ti.func
     def _velocity(self, i, x_in, v_in, gravity, damping, dt):
-        """v(t+dt) of particle i: Eq. 2's velocity update, then the body colliders."""
+        """v(t+dt) of particle i: Eq. 2's velocity update, then the body colliders.
+
+        Returns ``(v_move, push)``: ``v_move`` moves the particle this step; ``push`` is
+        the part of it that only restores the contact thickness, which the particle does
+        not keep (:meth:`BodyCollider.respond_split`): it keeps ``v_move − push``.
+        """
         m = self.model
         w = m.particle_inv_mass[i]
         v_new = ti.Vector([0.0, 0.0, 0.0])
+        push = ti.Vector([0.0, 0.0, 0.0])
         if w > 0.0:
             # Eq. 2: v(t+dt) = v(t) + dt F(t)/m, F = F_int + m g − γ m v(t)
             f = self._gathered_force(i)
             v_new = v_in[i] + dt * (f * w + gravity[None] - damping[None] * v_in[i])
             # contact (§2.5): each collider revises v(t+dt) before the position update
             for c in ti.static(m.colliders):
-                v_new = c.respond(x_in[i], v_new, dt)
-        return v_new
+                v_move, v_keep = c.respond_split(x_in[i], v_new, dt)
+                push += v_move - v_keep
+                v_new = v_move
+        return v_new, push
 
     @ti.func
     def _position(self, i, x_in, x_out, v_new, dt, index):
@@ -280,16 +293,20 @@ class SymplecticEulerSolver:
             self._kick(x_in, v_in, v_out, gravity, damping, dt)
             for i in range(self.model.particle_count):
                 self._position(i, x_in, x_out, v_out[i], dt, index)
+                v_out[i] -= self.push[i]
         else:
             for i in range(self.model.particle_count):
-                v_new = self._velocity(i, x_in, v_in, gravity, damping, dt)
-                v_out[i] = v_new
+                v_new, push = self._velocity(i, x_in, v_in, gravity, damping, dt)
+                v_out[i] = v_new - push
                 self._position(i, x_in, x_out, v_new, dt, index)
 
     @ti.func
     def _kick(self, x_in, v_in, v_out, gravity, damping, dt):
         for i in range(self.model.particle_count):
-            v_out[i] = self._velocity(i, x_in, v_in, gravity, damping, dt)
+            v_new, push = self._velocity(i, x_in, v_in, gravity, damping, dt)
+            v_out[i] = v_new
+            if ti.static(self.has_bodies):
+                self.push[i] = push
         if ti.static(self.has_faces):
             self._face_pass(x_in, v_out, dt)
 
@@ -339,3 +356,5 @@ class SymplecticEulerSolver:
         sc = self.model.self_collider
         for i in range(self.model.particle_count):
             self._position(i, x_in, x_out, v[i] + sc.corr[i], dt, index)
+            if ti.static(self.has_bodies):
+                v[i] -= self.push[i]
