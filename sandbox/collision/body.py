@@ -10,7 +10,8 @@ velocity update of Eq. 2 each free vertex is checked twice, before its position 
 2. **Proximity.** If the predicted position is closer than ``thickness`` to the body (or
    behind it), an inelastic normal impulse brings it back to the thickness, and Coulomb
    friction acts on the tangential velocity: the vertex sticks if |v_t| <= μ_s Δv_n,
-   otherwise v_t loses μ_k Δv_n.
+   otherwise v_t loses μ_k Δv_n. The part of the normal change that only restores the
+   thickness moves the vertex this step and is then dropped (:meth:`respond_split`).
 
 Thickness [m], friction coefficients and the body's vertex positions live in fields, so a
 UI can change them between steps. Capacities are fixed at construction.

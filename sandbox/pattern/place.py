@@ -69,6 +69,7 @@ RELAX_ITERATIONS = 60
 """Jacobi passes that bring each placed panel's mesh edges back towards their pattern
 lengths (:func:`relax_panel`) before a push-out ..."""
 RELAX_ROUNDS = 3
+RELAX_BODIES = ("torso", "arm_left", "arm_right", "leg_left", "leg_right")
 RELAX_HOLD = 0.03
 """Each pass also pulls every vertex this fraction of the way back to where the wrap put it,
 so a panel keeps its place (its anchor on the landmark) while its strains relax."""
@@ -417,20 +418,46 @@ def place_pattern(pattern, meshes: dict, mannequin) -> dict[str, np.ndarray]:
             sector = None
         out[name] = place_panel(pts, p, body, panel.units_to_m, sector_rad=sector,
                                 axis_height_m=heights[part], where=at)  # fmt: skip
-    if "torso" in by_part:
-        limbs = [n for part, names in by_part.items() if part != "torso" for n in names]
-        _lift_over_torso(body, body.frame("torso", heights["torso"]), out,
-                         by_part["torso"], limbs, pattern)  # fmt: skip
-    for names in by_part.values():  # the wrapped panels: unstrain, then keep the clearance
-        for name in names:
-            panel, mesh = pattern.panels[name], meshes[name]
+    relaxed = {}
+    for part, names in by_part.items():  # unstrain each wrapped panel, keep the clearance
+        for name in names if part in RELAX_BODIES else ():
+            panel, x = pattern.panels[name], out[name]
             u = panel.units_to_m
             clearance = float(panel.placement.get("clearance", DEFAULT_CLEARANCE_M / u)) * u
-            x = out[name]
             for _ in range(RELAX_ROUNDS):
-                x, _ = body.push_out(relax_panel(x, mesh.triangles, mesh.points), clearance)
-            out[name] = x
-    return out
+                x, _ = body.push_out(relax_panel(x, meshes[name].triangles, meshes[name].points),
+                                     clearance)  # fmt: skip
+            relaxed[name] = x
+
+    def assemble(chosen: set) -> tuple[dict, int]:
+        """Positions with the chosen panels relaxed, sleeves lifted; and their crossings."""
+        placed = {n: (relaxed[n] if n in chosen else x).copy() for n, x in out.items()}
+        if "torso" in by_part:
+            limbs = [n for part, names in by_part.items() if part != "torso" for n in names]
+            _lift_over_torso(body, body.frame("torso", heights["torso"]), placed,
+                             by_part["torso"], limbs, pattern)  # fmt: skip
+        return placed, _crossings(placed, meshes)
+
+    # a relaxed panel can slide into its neighbour (a sleeve into the bodice): keep each
+    # panel's relaxation only if the garment does not start with more crossings
+    chosen: set = set()
+    best, crossings = assemble(chosen)
+    for name in relaxed:
+        trial, c = assemble(chosen | {name})
+        if c <= crossings:
+            chosen, best, crossings = chosen | {name}, trial, c
+    return best
+
+
+def _crossings(placed: dict, meshes: dict) -> int:
+    """Intersecting triangle pairs of all panels together (exact test)."""
+    from sandbox.collision.metrics import count_intersecting_pairs
+
+    names = list(placed)
+    offsets = np.cumsum([0] + [len(placed[n]) for n in names])
+    x = np.vstack([placed[n] for n in names])
+    tri = np.vstack([meshes[n].triangles + offsets[k] for k, n in enumerate(names)])
+    return count_intersecting_pairs(x, tri)
 
 
 def relax_panel(x: np.ndarray, triangles: np.ndarray, rest_xy: np.ndarray,
