@@ -138,6 +138,12 @@ class SelfCollider:
         self.pair_w = ti.Vector.field(4, float, shape=self.capacity)
         self.pair_d = ti.Vector.field(3, float, shape=self.capacity)
         self.pair_dist = ti.field(float, shape=self.capacity)
+        # each pair's distance at the list's build, and how far each vertex has moved since:
+        # a pair whose features cannot have come within h skips the exact geometry
+        self.pair_dist0 = ti.field(float, shape=self.capacity)
+        self.moved = ti.field(float, shape=max(1, n))
+        self.step_len = ti.field(float, shape=max(1, n))  # |dt (v + corr)| after pass 1 [m]
+        self.fresh = ti.field(ti.i32, shape=())
         self.touched = ti.field(ti.i32, shape=max(1, n))  # got a CCD impulse this step
         self.pair_count = ti.field(ti.i32, shape=())
         self.overflow = ti.field(ti.i32, shape=())
@@ -359,6 +365,7 @@ class SelfCollider:
             ti.atomic_max(self.max_step[None], (dt * v[i] - self.mean_shift[None]).norm())
             u = x[i] + dt * v[i] - self.x_build[i] - self.drift_mean[None]
             ti.atomic_max(self.spread[None], u.norm())
+            self.moved[i] = (x[i] - self.x_build[i]).norm()
         if self.spread[None] > 0.4 * self.margin[None]:
             self.needs_build[None] = 1
 
@@ -501,6 +508,7 @@ class SelfCollider:
             self.build_step[i] = dt * v[i]
         self._order_pairs()
         self.needs_build[None] = 0
+        self.fresh[None] = 1  # the next proximity pass records the pairs' distances
         self.rebuilds[None] += 1
 
     @ti.func
@@ -602,12 +610,30 @@ class SelfCollider:
         """
         h = self.thickness[None]
         count = ti.min(self.pair_count[None], self.capacity)
+        fresh = self.fresh[None]
         for p in range(count):  # parallel
             idx = self.pair[p]
-            W, d = self._geometry(self.pair_kind[p], x[idx[0]], x[idx[1]], x[idx[2]], x[idx[3]])
-            self.pair_w[p] = W
-            self.pair_d[p] = d
-            self.pair_dist[p] = d.norm()
+            kind = self.pair_kind[p]
+            near = True
+            if fresh == 0:
+                # a distance changes by at most how far each side's vertices moved
+                m0, m1 = self.moved[idx[0]], self.moved[idx[1]]
+                m2, m3 = self.moved[idx[2]], self.moved[idx[3]]
+                moved = m0 + ti.max(m1, m2, m3)
+                if kind == KIND_EE:
+                    moved = ti.max(m0, m1) + ti.max(m2, m3)
+                bound = self.pair_dist0[p] - moved
+                if bound >= h:  # no impulse; CCD's test takes the bound (conservative)
+                    near = False
+                    self.pair_dist[p] = bound
+            if near:
+                W, d = self._geometry(kind, x[idx[0]], x[idx[1]], x[idx[2]], x[idx[3]])
+                self.pair_w[p] = W
+                self.pair_d[p] = d
+                self.pair_dist[p] = d.norm()
+                if fresh == 1:
+                    self.pair_dist0[p] = d.norm()
+        self.fresh[None] = 0
         for _ in range(1):  # serial: impulses of one pair are seen by the next
             for p in range(count):
                 dist = self.pair_dist[p]
@@ -704,9 +730,16 @@ class SelfCollider:
         eps = 1e-6 + 1e-3 * h
         count = ti.min(self.pair_count[None], self.capacity)
         self.unresolved[None] = 0
+        for i in range(self.model.particle_count):
+            self.step_len[i] = (dt * (v[i] + self.corr[i])).norm()
         for p in range(count):  # parallel (``touched`` was cleared by ``prepare``)
-            may = self._reach(self.pair_kind[p], self.pair[p], v, dt) >= self.pair_dist[p] - eps
-            self.pair_hit[p] = 1 if may else 0
+            idx = self.pair[p]
+            s0, s1 = self.step_len[idx[0]], self.step_len[idx[1]]
+            s2, s3 = self.step_len[idx[2]], self.step_len[idx[3]]
+            reach = s0 + ti.max(s1, s2, s3)  # as :meth:`_reach`, from the stored lengths
+            if self.pair_kind[p] == KIND_EE:
+                reach = ti.max(s0, s1) + ti.max(s2, s3)
+            self.pair_hit[p] = 1 if reach >= self.pair_dist[p] - eps else 0
         for _ in range(1):  # serial
             remaining = 1
             passes = 0
