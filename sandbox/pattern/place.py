@@ -69,11 +69,10 @@ RELAX_ITERATIONS = 60
 """Jacobi passes that bring each placed panel's mesh edges back towards their pattern
 lengths (:func:`relax_panel`) before a push-out ..."""
 RELAX_ROUNDS = 3
-RELAX_BODIES = ("torso", "arm_left", "arm_right", "leg_left", "leg_right")
+"""... and how many times the two alternate."""
 RELAX_HOLD = 0.03
 """Each pass also pulls every vertex this fraction of the way back to where the wrap put it,
 so a panel keeps its place (its anchor on the landmark) while its strains relax."""
-"""... and how many times the two alternate."""
 OVERLAP_MARGIN_M = 0.015
 """Limb panels (sleeve caps) above the underarm start at least this far outside the torso
 panels, measured from the torso axis, so that they do not cut through the bodice."""
@@ -419,8 +418,8 @@ def place_pattern(pattern, meshes: dict, mannequin) -> dict[str, np.ndarray]:
         out[name] = place_panel(pts, p, body, panel.units_to_m, sector_rad=sector,
                                 axis_height_m=heights[part], where=at)  # fmt: skip
     relaxed = {}
-    for part, names in by_part.items():  # unstrain each wrapped panel, keep the clearance
-        for name in names if part in RELAX_BODIES else ():
+    for names in by_part.values():  # unstrain each wrapped panel, keep the clearance
+        for name in names:
             panel, x = pattern.panels[name], out[name]
             u = panel.units_to_m
             clearance = float(panel.placement.get("clearance", DEFAULT_CLEARANCE_M / u)) * u
