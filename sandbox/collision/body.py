@@ -26,6 +26,11 @@ from sandbox.collision.primitives import point_triangle_closest
 from sandbox.errors import SandboxError
 
 MAX_CELLS_PER_QUERY = 512
+# Triangles are binned with their box grown by this many thicknesses h. A vertex whose
+# step |x1 - x| is at most that pad finds, in the one cell of its end point x1, every
+# triangle within h of x1 and every triangle its step crosses (the crossing point is within
+# |x1 - x| of x1): one cell, each triangle once, instead of the cells of its box.
+BIN_PAD_THICKNESSES = 2.0
 
 
 @ti.data_oriented
@@ -98,9 +103,10 @@ class BodyCollider:
         self.cell_size = ti.field(float, shape=())
         self.cell_start = ti.field(ti.i32, shape=n_cells + 1)
         self.cell_fill = ti.field(ti.i32, shape=n_cells)
-        self.entry_capacity = int(len(t) * 27 + 4096)
+        self.entry_capacity = int(len(t) * 40 + 4096)
         self.cell_entries = ti.field(ti.i32, shape=self.entry_capacity)
         self.overflow = ti.field(ti.i32, shape=())
+        self.bin_pad = ti.field(float, shape=())  # the triangles' box growth at the build [m]
         # body vertices, one grid entry each, with area-weighted outward normals: the
         # face pass (body vertices against cloth triangles) of a closed body
         self.vertex_normal = ti.Vector.field(3, float, shape=len(v))
@@ -154,7 +160,8 @@ class BodyCollider:
             self.tri_radius[t] = ti.max((a - g).norm(), (b - g).norm(), (c - g).norm())
         for c in self.cell_fill:
             self.cell_fill[c] = 0
-        pad = self.thickness[None]
+        pad = BIN_PAD_THICKNESSES * self.thickness[None]
+        self.bin_pad[None] = pad
         for t in self.tri:
             a, b, c = (
                 self.body_x[self.tri[t][0]],
@@ -308,8 +315,13 @@ class BodyCollider:
         """
         h = self.thickness[None]
         x1 = x + dt * v
-        lo = self._cell_of(ti.min(x, x1) - h)
-        hi = self._cell_of(ti.max(x, x1) + h)
+        # the cell of x1 alone when the binning pad covers both h and the step
+        # (BIN_PAD_THICKNESSES), else every cell of the step's box grown by h
+        lo = self._cell_of(x1)
+        hi = lo
+        if ti.max(h, (x1 - x).norm()) > self.bin_pad[None]:
+            lo = self._cell_of(ti.min(x, x1) - h)
+            hi = self._cell_of(ti.max(x, x1) + h)
         # 1. continuous: earliest crossing of the segment through a triangle
         best_t = 2.0
         best_n = ti.Vector([0.0, 0.0, 0.0])
