@@ -56,7 +56,12 @@ SCAN_BLOCK = 1024  # cells per block of the parallel prefix sum
 MAX_GRID_EXTENT_M = 1e4  # the grid covers at most this much of the cloth's bounding box
 SEPARATION_FRACTION = 0.25  # of the missing thickness, per step (proximity pass)
 CCD_GAP_FRACTION = 0.1  # of the thickness, left between a colliding pair (CCD pass)
-PAIRS_PER_VERTEX = 32  # pair list capacity per vertex + per edge
+PAIRS_PER_VERTEX = 32
+# partial refresh: when the list must be renewed but only the vertices that drifted more
+# than PARTIAL_TAU margins (at most PARTIAL_FRACTION of them) caused it, only their pairs
+# are found again
+PARTIAL_TAU = 0.2
+PARTIAL_FRACTION = 0.05  # pair list capacity per vertex + per edge
 ZONE_ROUNDS = 100
 KIND_VT = 0
 KIND_EE = 1
@@ -168,6 +173,22 @@ class SelfCollider:
         self.excess = ti.field(float, shape=())
 
         self.x_build = ti.Vector.field(3, float, shape=max(1, n))
+        # the partial refresh: the drifted vertices M, their own grid (vertices, and the
+        # edges touching them, by midpoint), the positional common shift c
+        self.marked = ti.field(ti.i32, shape=max(1, n))
+        self.marked_count = ti.field(ti.i32, shape=())
+        self.shift = ti.Vector.field(3, float, shape=())
+        self.mv_count = ti.field(ti.i32, shape=self.cell_capacity)
+        self.mv_start = ti.field(ti.i32, shape=self.cell_capacity + 1)
+        self.mv_entry = ti.field(ti.i32, shape=max(1, n))
+        self.me_count = ti.field(ti.i32, shape=self.cell_capacity)
+        self.me_start = ti.field(ti.i32, shape=self.cell_capacity + 1)
+        self.me_entry = ti.field(ti.i32, shape=max(1, len(edges)))
+        self.me_p0 = ti.Vector.field(3, float, shape=max(1, len(edges)))
+        self.me_p1 = ti.Vector.field(3, float, shape=max(1, len(edges)))
+        self.sort_dist0 = ti.field(float, shape=self.capacity)
+        self.keep_block = ti.field(ti.i32, shape=(self.capacity + SCAN_BLOCK - 1) // SCAN_BLOCK)
+        self.refreshes = ti.field(ti.i32, shape=())
         self.corr = ti.Vector.field(3, float, shape=max(1, n))  # position correction [m/s]
         self.max_step = ti.field(float, shape=())
         self.mean_shift = ti.Vector.field(3, float, shape=())  # this step's mean dt v
@@ -356,7 +377,10 @@ class SelfCollider:
         """Start of the contact passes: clear corrections, decide whether to rebuild.
 
         ``max_step`` becomes this step's largest displacement relative to the cloth's mean
-        motion [m], the motion a rebuilt list must cover.
+        motion [m], the motion a rebuilt list must cover. ``needs_build`` becomes 1 (a full
+        rebuild) or 2 (a partial refresh, :meth:`refresh`) when a vertex would leave the
+        list's bound: a refresh when the step is slow and only the few vertices that
+        drifted more than ``PARTIAL_TAU`` margins caused it.
         """
         n = self.model.particle_count
         # two passes (means, then maxima) for the step's motion and the drift since x_b
@@ -368,15 +392,31 @@ class SelfCollider:
             self.drift_mean[None] += (x[i] + dt * v[i] - self.x_build[i]) / n
         self.max_step[None] = 0.0
         self.spread[None] = 0.0
+        self.shift[None] = self.drift_mean[None] - self.mean_shift[None]  # mean of x − x_b
+        self.marked_count[None] = 0
+        tau = PARTIAL_TAU * self.margin[None]
         for i in range(n):
             ti.atomic_max(self.max_step[None], (dt * v[i] - self.mean_shift[None]).norm())
             u = x[i] + dt * v[i] - self.x_build[i] - self.drift_mean[None]
             ti.atomic_max(self.spread[None], u.norm())
+            # drifted at the start of the step or at its predicted end
+            w = (x[i] - self.x_build[i] - self.shift[None]).norm()
+            self.marked[i] = 0
+            if ti.max(w, u.norm()) > tau:
+                self.marked[i] = 1
+                ti.atomic_add(self.marked_count[None], 1)
             self.moved[i] = (x[i] - self.x_build[i]).norm()
             self.corr[i] = ti.Vector([0.0, 0.0, 0.0])
             self.touched[i] = 0
-        if self.spread[None] > 0.4 * self.margin[None]:
+        if self.spread[None] > 0.4 * self.margin[None] and self.needs_build[None] == 0:
             self.needs_build[None] = 1
+            margin = self.margin[None]
+            grown = ti.max(self.margin0, ti.min(MARGIN_STEPS * self.max_step[None],
+                                                MARGIN_EDGE_FRACTION * self.mean_edge))  # fmt: skip
+            slow = 2.0 * self.max_step[None] <= 0.4 * margin and ti.abs(grown - margin) <= 0.2 * margin
+            few = self.marked_count[None] <= PARTIAL_FRACTION * n
+            if slow and few and self.marked_count[None] > 0:
+                self.needs_build[None] = 2
 
     @ti.func
     def _motion(self, i, v, dt):
@@ -403,12 +443,14 @@ class SelfCollider:
                         self._append(KIND_VT, ti.Vector([u, tv[0], tv[1], tv[2]]))
 
     @ti.func
-    def _edge_edge(self, e, s, box_lo, box_hi, a_lo, a_hi, move_a, reach, sweep_k, x, v, dt):
-        """Append edge e and the edge of grid entry s if they are within the reach (plus
-        sweep); cheap tests first, as in :meth:`_vertex_triangle`."""
-        q0, q1 = self.e_p0[s], self.e_p1[s]
+    def _edge_edge(self, e, s, entry, ends0, ends1, box_lo, box_hi, a_lo, a_hi, move_a, reach,
+                   sweep_k, x, v, dt):  # fmt: skip
+        """Append edge e and the edge of grid entry s (of ``entry``, with end points
+        ``ends0``, ``ends1``) if they are within the reach (plus sweep); cheap tests first,
+        as in :meth:`_vertex_triangle`."""
+        q0, q1 = ends0[s], ends1[s]
         if (ti.min(q0, q1) <= box_hi).all() and (ti.max(q0, q1) >= box_lo).all():
-            f = self.e_entry[s]
+            f = entry[s]
             eb = self.edge[f]
             s0, s1 = q0 + dt * v[eb[0]], q1 + dt * v[eb[1]]
             b_lo = ti.min(ti.min(q0, q1), ti.min(s0, s1))
@@ -450,19 +492,13 @@ class SelfCollider:
         for e in range(self.edge_count):
             length = (x[self.edge[e][0]] - x[self.edge[e][1]]).norm()
             ti.atomic_max(self.half_edge[None], 0.5 * length)
+        self._bin_vertices(x, cells)
         for c in range(cells):
-            self.v_count[c] = 0
             self.e_count[c] = 0
-        for i in range(m.particle_count):
-            ti.atomic_add(self.v_count[self._cell_index(self._cell_of(x[i]))], 1)
         for e in range(self.edge_count):
             mid = 0.5 * (x[self.edge[e][0]] + x[self.edge[e][1]])
             ti.atomic_add(self.e_count[self._cell_index(self._cell_of(mid))], 1)
-        self._starts(self.v_count, self.v_start, self.v_block, cells)
         self._starts(self.e_count, self.e_start, self.e_block, cells)
-        for i in range(m.particle_count):
-            c = self._cell_index(self._cell_of(x[i]))
-            self.v_entry[self.v_start[c] + ti.atomic_add(self.v_count[c], 1)] = i
         for e in range(self.edge_count):
             q0, q1 = x[self.edge[e][0]], x[self.edge[e][1]]
             c = self._cell_index(self._cell_of(0.5 * (q0 + q1)))
@@ -522,14 +558,181 @@ class SelfCollider:
                     for s in range(self.e_start[row + k_from], self.e_start[row + hi[2] + 1]):
                         # in the own cell, each pair once: the other edge's index is higher
                         if s >= own_hi or self.e_entry[s] > e:
-                            self._edge_edge(e, s, box_lo, box_hi, a_lo, a_hi, move_a, reach,
-                                            sweep_k, x, v, dt)  # fmt: skip
+                            self._edge_edge(e, s, self.e_entry, self.e_p0, self.e_p1, box_lo,
+                                            box_hi, a_lo, a_hi, move_a, reach, sweep_k, x, v,
+                                            dt)  # fmt: skip
         for i in range(m.particle_count):
             self.build_step[i] = dt * v[i]
         self._order_pairs()
         self.needs_build[None] = 0
         self.fresh[None] = 1  # the next proximity pass records the pairs' distances
         self.rebuilds[None] += 1
+
+    @ti.func
+    def _bin_vertices(self, x, cells):
+        """The vertex grid: every vertex by its position (v_start, v_entry)."""
+        for c in range(cells):
+            self.v_count[c] = 0
+        for i in range(self.model.particle_count):
+            ti.atomic_add(self.v_count[self._cell_index(self._cell_of(x[i]))], 1)
+        self._starts(self.v_count, self.v_start, self.v_block, cells)
+        for i in range(self.model.particle_count):
+            c = self._cell_index(self._cell_of(x[i]))
+            self.v_entry[self.v_start[c] + ti.atomic_add(self.v_count[c], 1)] = i
+
+    @ti.func
+    def _edge_marked(self, e):
+        return self.marked[self.edge[e][0]] + self.marked[self.edge[e][1]] > 0
+
+    @ti.func
+    def _drop_marked_pairs(self):
+        """Remove the pairs with a marked vertex from the list, keeping the order (and
+        each pair's ``pair_dist0``)."""
+        count = ti.min(self.pair_count[None], self.capacity)
+        blocks = (count + SCAN_BLOCK - 1) // SCAN_BLOCK
+        for b in range(blocks):
+            total = 0
+            for p in range(b * SCAN_BLOCK, ti.min((b + 1) * SCAN_BLOCK, count)):
+                idx = self.pair[p]
+                mk = self.marked[idx[0]] + self.marked[idx[1]]
+                if mk + self.marked[idx[2]] + self.marked[idx[3]] == 0:
+                    total += 1
+            self.keep_block[b] = total
+        ti.loop_config(serialize=True)
+        for b in range(blocks):
+            if b == 0:
+                self.pair_count[None] = 0
+            offset = self.pair_count[None]
+            self.pair_count[None] = offset + self.keep_block[b]
+            self.keep_block[b] = offset
+        for b in range(blocks):
+            slot = self.keep_block[b]
+            for p in range(b * SCAN_BLOCK, ti.min((b + 1) * SCAN_BLOCK, count)):
+                idx = self.pair[p]
+                mk = self.marked[idx[0]] + self.marked[idx[1]]
+                if mk + self.marked[idx[2]] + self.marked[idx[3]] == 0:
+                    self.sort_pair[slot] = idx
+                    self.sort_kind[slot] = self.pair_kind[p]
+                    self.sort_dist0[slot] = self.pair_dist0[p]
+                    slot += 1
+        for p in range(self.pair_count[None]):
+            self.pair[p] = self.sort_pair[p]
+            self.pair_kind[p] = self.sort_kind[p]
+            self.pair_dist0[p] = self.sort_dist0[p]
+
+    @ti.func
+    def refresh(self, x, v, dt):
+        """Partial refresh of the candidate list (``needs_build`` 2, a slow step): only the
+        pairs with a marked vertex (one that drifted more than ``PARTIAL_TAU`` margins) are
+        found again, at the current positions.
+
+        Why it holds: a pair not in the list was farther than h + margin either at the
+        last full rebuild (no marked vertex: the usual bound) or now. A pair found now
+        is searched with a reach grown by 2 tau: each of its unmarked vertices has drifted
+        at most tau from its own build position, so measured against the build positions,
+        as every later bound is, the pair is at least h + margin apart too. The marked
+        vertices' build positions become their current ones (less the common shift), and
+        their new pairs compute their distance every step (``pair_dist0`` = -1).
+
+        The marked vertices, and the edges that touch them, get a grid of their own; every
+        triangle and every edge looks in it. A triangle with a marked corner looks at every
+        vertex instead. Each pair is found once: a marked edge takes only the marked edges
+        numbered after it.
+        """
+        m = self.model
+        h = self.thickness[None]
+        tau = PARTIAL_TAU * self.margin[None]
+        reach = h + self.margin[None] + 2.0 * tau
+        sweep_k = SWEEP_SAFETY * self.sweep_scale[None]
+        query = reach + 2.0 * sweep_k * self.max_step[None]
+        self._drop_marked_pairs()
+        base = self.pair_count[None]
+        cells = self._fit_grid(x, CELL_SCALE * ti.max(self.mean_edge, reach))
+        self._bin_vertices(x, cells)
+        # the marked vertices' grid, and the marked edges' (by midpoint)
+        self.half_edge[None] = 0.0
+        for c in range(cells):
+            self.mv_count[c] = 0
+            self.me_count[c] = 0
+        for i in range(m.particle_count):
+            if self.marked[i] == 1:
+                ti.atomic_add(self.mv_count[self._cell_index(self._cell_of(x[i]))], 1)
+        for e in range(self.edge_count):
+            if self._edge_marked(e):
+                q0, q1 = x[self.edge[e][0]], x[self.edge[e][1]]
+                ti.atomic_add(self.me_count[self._cell_index(self._cell_of(0.5 * (q0 + q1)))], 1)
+                ti.atomic_max(self.half_edge[None], 0.5 * (q0 - q1).norm())
+        self._starts(self.mv_count, self.mv_start, self.v_block, cells)
+        self._starts(self.me_count, self.me_start, self.e_block, cells)
+        for i in range(m.particle_count):
+            if self.marked[i] == 1:
+                c = self._cell_index(self._cell_of(x[i]))
+                self.mv_entry[self.mv_start[c] + ti.atomic_add(self.mv_count[c], 1)] = i
+        for e in range(self.edge_count):
+            if self._edge_marked(e):
+                q0, q1 = x[self.edge[e][0]], x[self.edge[e][1]]
+                c = self._cell_index(self._cell_of(0.5 * (q0 + q1)))
+                slot = self.me_start[c] + ti.atomic_add(self.me_count[c], 1)
+                self.me_entry[slot] = e
+                self.me_p0[slot] = q0
+                self.me_p1[slot] = q1
+        # vertex-triangle: a triangle with a marked corner against every vertex, any other
+        # triangle against the marked vertices
+        for t in range(m.tri_count):
+            tv = m.tri_indices[t]
+            a, b, c = x[tv[0]], x[tv[1]], x[tv[2]]
+            box_lo, box_hi = ti.min(a, b, c) - query, ti.max(a, b, c) + query
+            lo, hi = self._cell_range(box_lo, box_hi)
+            tri_move = ti.max(self._motion(tv[0], v, dt), self._motion(tv[1], v, dt),
+                              self._motion(tv[2], v, dt))  # fmt: skip
+            ya, yb, yc = a + dt * v[tv[0]], b + dt * v[tv[1]], c + dt * v[tv[2]]
+            t_lo = ti.min(ti.min(a, b, c), ti.min(ya, yb, yc)) - reach
+            t_hi = ti.max(ti.max(a, b, c), ti.max(ya, yb, yc)) + reach
+            corner = self.marked[tv[0]] + self.marked[tv[1]] + self.marked[tv[2]] > 0
+            for i in range(lo[0], hi[0] + 1):
+                for j in range(lo[1], hi[1] + 1):
+                    row = self._cell_index(ti.Vector([i, j, 0]))
+                    if corner:
+                        for s in range(self.v_start[row + lo[2]], self.v_start[row + hi[2] + 1]):
+                            self._vertex_triangle(
+                                self.v_entry[s], tv, a, b, c, box_lo, box_hi, t_lo, t_hi,
+                                tri_move, reach, sweep_k, x, v, dt,
+                            )  # fmt: skip
+                    else:
+                        for s in range(self.mv_start[row + lo[2]], self.mv_start[row + hi[2] + 1]):
+                            self._vertex_triangle(
+                                self.mv_entry[s], tv, a, b, c, box_lo, box_hi, t_lo, t_hi,
+                                tri_move, reach, sweep_k, x, v, dt,
+                            )  # fmt: skip
+        # edge-edge: every edge against the marked edges (a marked edge: those after it)
+        grow = query + self.half_edge[None]
+        for e in range(self.edge_count):
+            ea = self.edge[e]
+            p0, p1 = x[ea[0]], x[ea[1]]
+            box_lo, box_hi = ti.min(p0, p1) - query, ti.max(p0, p1) + query
+            move_a = ti.max(self._motion(ea[0], v, dt), self._motion(ea[1], v, dt))
+            r0, r1 = p0 + dt * v[ea[0]], p1 + dt * v[ea[1]]
+            a_lo = ti.min(ti.min(p0, p1), ti.min(r0, r1)) - reach
+            a_hi = ti.max(ti.max(p0, p1), ti.max(r0, r1)) + reach
+            lo, hi = self._cell_range(ti.min(p0, p1) - grow, ti.max(p0, p1) + grow)
+            own_marked = self._edge_marked(e)
+            for i in range(lo[0], hi[0] + 1):
+                for j in range(lo[1], hi[1] + 1):
+                    row = self._cell_index(ti.Vector([i, j, 0]))
+                    for s in range(self.me_start[row + lo[2]], self.me_start[row + hi[2] + 1]):
+                        if not own_marked or self.me_entry[s] > e:
+                            self._edge_edge(e, s, self.me_entry, self.me_p0, self.me_p1,
+                                            box_lo, box_hi, a_lo, a_hi, move_a, reach, sweep_k,
+                                            x, v, dt)  # fmt: skip
+        count = ti.min(self.pair_count[None], self.capacity)
+        for p in range(base, count):
+            self.pair_dist0[p] = -1.0  # computed every step (see above)
+        for i in range(m.particle_count):
+            if self.marked[i] == 1:
+                self.x_build[i] = x[i] - self.shift[None]
+        self._order_pairs()
+        self.needs_build[None] = 0
+        self.refreshes[None] += 1
 
     @ti.func
     def _pair_key(self, kind, idx):
@@ -569,6 +772,7 @@ class SelfCollider:
             slot = self.sort_start[k] + ti.atomic_add(self.sort_count[k], 1)
             self.sort_pair[slot] = self.pair[p]
             self.sort_kind[slot] = self.pair_kind[p]
+            self.sort_dist0[slot] = self.pair_dist0[p]
         for k in range(keys):
             lo, hi = self.sort_start[k], self.sort_start[k + 1]
             for i in range(lo, hi):  # insertion sort of the (few) pairs of this key
@@ -582,11 +786,14 @@ class SelfCollider:
                         if self._before(a, ka, b, kb):
                             self.sort_pair[j], self.sort_kind[j] = b, kb
                             self.sort_pair[j - 1], self.sort_kind[j - 1] = a, ka
+                            da, db = self.sort_dist0[j], self.sort_dist0[j - 1]
+                            self.sort_dist0[j], self.sort_dist0[j - 1] = db, da
                             j -= 1
                             moving = True
             for i in range(lo, hi):
                 self.pair[i] = self.sort_pair[i]
                 self.pair_kind[i] = self.sort_kind[i]
+                self.pair_dist0[i] = self.sort_dist0[i]
 
     @ti.func
     def _geometry(self, kind, p0, p1, p2, p3):
@@ -852,14 +1059,22 @@ class SelfCollider:
         return 1 if self.unresolved[None] == 0 and self.covered[None] == 1 else 0
 
     def _respond_kernel(self, x, v, dt: float) -> bool:
-        """The three kernels of one response: prepare, rebuild if needed, the passes."""
-        if self._prepare_kernel(x, v, dt):
+        """The three kernels of one response: prepare, rebuild or refresh if needed, the
+        passes."""
+        build = self._prepare_kernel(x, v, dt)
+        if build == 1:
             self._rebuild_kernel(x, v, dt)
+        elif build == 2:
+            self._refresh_kernel(x, v, dt)
         return bool(self._passes_kernel(x, v, dt))
 
     @ti.kernel
     def _rebuild_kernel(self, x: ti.template(), v: ti.template(), dt: float):
         self.rebuild(x, v, dt)
+
+    @ti.kernel
+    def _refresh_kernel(self, x: ti.template(), v: ti.template(), dt: float):
+        self.refresh(x, v, dt)
 
     @ti.kernel
     def _mark_kernel(self, x: ti.template(), v: ti.template(), dt: float) -> ti.i32:
