@@ -413,7 +413,8 @@ class SelfCollider:
             margin = self.margin[None]
             grown = ti.max(self.margin0, ti.min(MARGIN_STEPS * self.max_step[None],
                                                 MARGIN_EDGE_FRACTION * self.mean_edge))  # fmt: skip
-            slow = 2.0 * self.max_step[None] <= 0.4 * margin and ti.abs(grown - margin) <= 0.2 * margin
+            steady = ti.abs(grown - margin) <= 0.2 * margin  # a rebuild would keep it
+            slow = 2.0 * self.max_step[None] <= 0.4 * margin and steady
             few = self.marked_count[None] <= PARTIAL_FRACTION * n
             if slow and few and self.marked_count[None] > 0:
                 self.needs_build[None] = 2
