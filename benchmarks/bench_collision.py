@@ -15,6 +15,7 @@ import argparse
 import math
 import time
 
+import numpy as np
 import taichi as ti
 
 from sandbox import runtime
@@ -38,17 +39,25 @@ def spec(n_vertices: int, with_body: bool, with_self: bool = False):
     return scene_from_dict(data, source="bench")
 
 
-def measure(runs, steps: int) -> dict:
-    """Best-of-five ms per step of each scene, interleaved (this VM varies by +-15 %)."""
-    results = {name: [] for name, _ in runs}
-    for _ in range(5):
+def measure(runs, steps: int, rounds: int = 25) -> dict:
+    """ms per step of each scene (median over ``rounds`` interleaved rounds of
+    steps // rounds steps each), and each scene's total time over the first's. This VM's
+    speed drifts by +-30 % over seconds; the scenes take turns every few steps, so they see
+    the same speeds and the ratio of totals is far steadier than the times. Totals, not
+    medians: the self-collision list's rebuilds (every ~50 steps) are counted in full."""
+    times = {name: [] for name, _ in runs}
+    per = max(1, steps // rounds)
+    for _ in range(rounds):
         for name, sc in runs:
             ti.sync()
             t0 = time.perf_counter()
-            sc.solver.advance(sc.state, sc.control, sc.dt_s, steps // 5)
+            sc.solver.advance(sc.state, sc.control, sc.dt_s, per)
             ti.sync()
-            results[name].append((time.perf_counter() - t0) / (steps // 5))
-    return {k: 1e3 * min(v) for k, v in results.items()}
+            times[name].append((time.perf_counter() - t0) / per)
+    first = times[runs[0][0]]
+    ms = {k: 1e3 * float(np.median(v)) for k, v in times.items()}
+    ratio = {k: float(np.sum(v) / np.sum(first)) for k, v in times.items()}
+    return ms, ratio
 
 
 def main() -> None:
@@ -57,7 +66,7 @@ def main() -> None:
     ap.add_argument("--settle", type=float, nargs="+", default=[0.3, 1.0, 3.0],
                     help="simulated seconds of draping (with self-collision) before each "
                     "measurement (default: 0.3 1.0 3.0, falling to draped)")  # fmt: skip
-    ap.add_argument("--steps", type=int, default=500)
+    ap.add_argument("--steps", type=int, default=1000)
     ap.add_argument("--profile", action="store_true",
                     help="then also 20 self-collision steps under Taichi's kernel profiler: "
                     "time per loop of the list rebuild and the contact passes")  # fmt: skip
@@ -83,7 +92,7 @@ def main() -> None:
           f"triangles; dt = {both.dt_s:.3g} s; body grid rebuild {rebuild * 1e3:.1f} ms; "
           "ms per step, targets: body adds <= 50 %, self <= 150 %")  # fmt: skip
     print(f"{'draped for':>10s} {'none':>8s} {'body':>8s} {'+ self':>8s} {'body adds':>10s} "
-          f"{'self adds':>10s} {'pairs':>7s} {'rebuilds':>9s}")  # fmt: skip
+          f"{'self adds':>10s} {'pairs':>7s} {'rebuilds':>9s} {'refreshes':>9s}")  # fmt: skip
     simulated = 0.0
     for t_settle in args.settle:
         steps = max(0, round((t_settle - simulated) / both.dt_s))
@@ -91,15 +100,16 @@ def main() -> None:
         simulated += steps * both.dt_s
         for sc in (free, body):
             sc.state.set(both.state.positions(), both.state.velocities())
-        rebuilds0 = sc_self.rebuilds[None]
-        ms = measure(runs, args.steps)
-        simulated += args.steps // 5 * 5 * both.dt_s
-        extra = ms["body collision"] / ms["no collision"] - 1.0
-        extra_self = ms["body + self"] / ms["no collision"] - 1.0
+        rebuilds0, refreshes0 = sc_self.rebuilds[None], sc_self.refreshes[None]
+        ms, ratio = measure(runs, args.steps)
+        simulated += args.steps * both.dt_s
+        extra = ratio["body collision"] - 1.0
+        extra_self = ratio["body + self"] - 1.0
         print(f"{t_settle:9.1f}s {ms['no collision']:8.2f} {ms['body collision']:8.2f} "
               f"{ms['body + self']:8.2f} {100 * extra:9.0f}% {100 * extra_self:9.0f}% "
               f"{sc_self.pair_count[None]:7d} {sc_self.rebuilds[None] - rebuilds0:5d}/"
-              f"{args.steps // 5 * 5}", flush=True)  # fmt: skip
+              f"{args.steps // 25 * 25} {sc_self.refreshes[None] - refreshes0:9d}",
+              flush=True)  # fmt: skip
     if args.profile:
         ti.profiler.clear_kernel_profiler_info()
         both.solver.advance(both.state, both.control, both.dt_s, 20)
