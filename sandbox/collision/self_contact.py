@@ -61,10 +61,14 @@ PAIRS_PER_VERTEX = 32
 # than PARTIAL_TAU margins (at most PARTIAL_FRACTION of them) caused it, only their pairs
 # are found again
 PARTIAL_TAU = 0.2
-PARTIAL_FRACTION = 0.05  # pair list capacity per vertex + per edge
+PARTIAL_FRACTION = 0.05
 ZONE_ROUNDS = 100
 KIND_VT = 0
 KIND_EE = 1
+# the passes' status: bit 0, the list covered the step and no pair collides at its end;
+# bit 1, a query overflowed the list (the step must be redone)
+RESOLVED = 1
+OVERFLOWED = 2
 
 
 @ti.data_oriented
@@ -1053,21 +1057,32 @@ class SelfCollider:
         self.prepare(x, v, dt)
         return self.needs_build[None]
 
-    @ti.kernel
-    def _passes_kernel(self, x: ti.template(), v: ti.template(), dt: float) -> ti.i32:
+    @ti.func
+    def passes(self, x, v, dt):
+        """Passes 1 and 2; returns the status (``RESOLVED``, ``OVERFLOWED`` bits)."""
         self.proximity(x, v, dt)
         self.continuous(x, v, dt)
-        return 1 if self.unresolved[None] == 0 and self.covered[None] == 1 else 0
+        status = OVERFLOWED * self.overflow[None]
+        if self.unresolved[None] == 0 and self.covered[None] == 1:
+            status += RESOLVED
+        return status
 
-    def _respond_kernel(self, x, v, dt: float) -> bool:
-        """The three kernels of one response: prepare, rebuild or refresh if needed, the
-        passes."""
-        build = self._prepare_kernel(x, v, dt)
+    @ti.kernel
+    def _passes_kernel(self, x: ti.template(), v: ti.template(), dt: float) -> ti.i32:
+        return self.passes(x, v, dt)
+
+    def build_list(self, x, v, dt: float, build: int) -> None:
+        """Rebuild (``build`` 1) or refresh (2) the candidate list, as ``prepare`` said."""
         if build == 1:
             self._rebuild_kernel(x, v, dt)
         elif build == 2:
             self._refresh_kernel(x, v, dt)
-        return bool(self._passes_kernel(x, v, dt))
+
+    def _respond_kernel(self, x, v, dt: float) -> int:
+        """The kernels of one response: prepare, rebuild or refresh if needed, the passes.
+        Returns the passes' status."""
+        self.build_list(x, v, dt, self._prepare_kernel(x, v, dt))
+        return int(self._passes_kernel(x, v, dt))
 
     @ti.kernel
     def _rebuild_kernel(self, x: ti.template(), v: ti.template(), dt: float):
@@ -1087,6 +1102,17 @@ class SelfCollider:
                 hits += 1
         return hits
 
+    def warm_up(self, x, v) -> None:
+        """Compile the kernels a run reaches only now and then (the partial refresh, the
+        fallbacks), so neither a scripted run's timing nor a live window stalls on them
+        mid-run. Call before the first step: the list is then rebuilt at that step."""
+        self._prepare_kernel(x, v, 0.0)
+        self._refresh_kernel(x, v, 0.0)
+        self._passes_kernel(x, v, 0.0)
+        self._mark_kernel(x, v, 0.0)
+        self.refreshes[None] = 0
+        self.needs_build[None] = 1
+
     def check_capacity(self):
         if self.overflow[None]:
             raise SandboxError(
@@ -1094,25 +1120,30 @@ class SelfCollider:
                 "crumpled far beyond its thickness (lower margin_m or check the start shape)"
             )
 
-    def resolve(self, state_x, state_v, dt: float) -> None:
-        """Python driver for one step (used when steps are launched one by one)."""
-        ok = self._respond_kernel(state_x, state_v, dt)
-        if self.overflow[None]:
+    def resolve(self, state_x, state_v, dt: float, status: int | None = None) -> None:
+        """Python driver for one step's response (used when steps are launched one by
+        one). ``status``: that of a first response the caller already ran (the explicit
+        solver runs it in its own kernels), else it is run here."""
+        if status is None:
+            status = self._respond_kernel(state_x, state_v, dt)
+        if status & OVERFLOWED:
             # a violent step (e.g. a crumpling hem) swept more pairs than the list holds:
             # redo it with the resting list only; CCD and the impact zones still run
             self.overflow_steps += 1
             self.overflow[None] = 0
             self.needs_build[None] = 1
             self.sweep_scale[None] = 0.0
-            ok = self._respond_kernel(state_x, state_v, dt)
+            status = self._respond_kernel(state_x, state_v, dt)
             self.sweep_scale[None] = 1.0
-        self.check_capacity()
+            if status & OVERFLOWED:
+                self.check_capacity()
         tries = 0
-        while not ok and self.needs_build[None] and tries < 2:
+        while not status & RESOLVED and self.needs_build[None] and tries < 2:
             tries += 1  # the impulses moved a vertex beyond the list's reach: rebuild
-            ok = self._respond_kernel(state_x, state_v, dt)
-            self.check_capacity()
-        if not ok:
+            status = self._respond_kernel(state_x, state_v, dt)
+            if status & OVERFLOWED:
+                self.check_capacity()
+        if not status & RESOLVED:
             self.resolve_zones(state_x, state_v, dt)
 
     def resolve_zones(self, state_x, state_v, dt: float) -> None:

@@ -20,6 +20,7 @@ use the same per-element functions.
 import taichi as ti
 
 from sandbox import runtime
+from sandbox.collision.self_contact import RESOLVED
 from sandbox.sim import forces
 from sandbox.sim.model import Control, Model, State  # noqa: F401 (used in annotations)
 
@@ -74,10 +75,16 @@ class SymplecticEulerSolver:
         """
         sc = self.self_collider
         if sc is not None:
-            self._kick_kernel(state_in.x, state_in.v, state_out.v, control.gravity,
-                              control.damping_per_s, dt)  # fmt: skip
-            sc.resolve(state_in.x, state_out.v, dt)
-            self._drift_kernel(state_in.x, state_out.v, state_out.x, dt, index)
+            # kick and the contact passes' preparation; the list rebuilt if needed; the
+            # passes, and the drift in the same launch when they resolved the step (the
+            # usual case). Otherwise the collider's fallbacks run, then the drift.
+            build = self._kick_kernel(state_in.x, state_in.v, state_out.v, control.gravity,
+                                      control.damping_per_s, dt)  # fmt: skip
+            sc.build_list(state_in.x, state_out.v, dt, build)
+            status = self._passes_drift_kernel(state_in.x, state_out.v, state_out.x, dt, index)
+            if status != RESOLVED:
+                sc.resolve(state_in.x, state_out.v, dt, status)
+                self._drift_kernel(state_in.x, state_out.v, state_out.x, dt, index)
             return
         self._step_kernel(
             state_in.x, state_in.v, state_out.x, state_out.v, control.gravity,
@@ -94,6 +101,14 @@ class SymplecticEulerSolver:
         else:  # self-collision needs its passes between the two halves of each step
             for k in range(steps):
                 self.step(state, state, control, dt, first_index + k)
+
+    def warm_up(self, state: State, control: Control) -> None:
+        """Compile every kernel a run of this model can reach, at the start of a run (a
+        zero step changes nothing)."""
+        self.advance(state, control, 0.0, 1)
+        if self.self_collider is not None:
+            self.self_collider.warm_up(state.x, state.v)
+            self._drift_kernel(state.x, state.v, state.x, 0.0, 0)
 
     def reset_watch(self) -> None:
         self.bad_step[None] = NO_STEP
@@ -139,16 +154,32 @@ class SymplecticEulerSolver:
     def _kick_kernel(
         self, x_in: ti.template(), v_in: ti.template(), v_out: ti.template(),
         gravity: ti.template(), damping: ti.template(), dt: float,
-    ):  # fmt: skip
+    ) -> ti.i32:  # fmt: skip
+        """Forces and v(t+dt) with the bodies, then self-collision's ``prepare``: returns
+        whether its list needs a rebuild (1) or a refresh (2)."""
         self._element_forces(x_in)
         self._kick(x_in, v_in, v_out, gravity, damping, dt)
+        self.self_collider.prepare(x_in, v_out, dt)
+        return self.self_collider.needs_build[None]
+
+    @ti.kernel
+    def _passes_drift_kernel(
+        self, x_in: ti.template(), v: ti.template(), x_out: ti.template(), dt: float,
+        index: ti.i32,
+    ) -> ti.i32:  # fmt: skip
+        """Self-collision's passes, then the drift only if they resolved the step (the
+        drift loop's range is 0 otherwise: a loop under an ``if`` would run serially)."""
+        status = self.self_collider.passes(x_in, v, dt)
+        count = self.model.particle_count if status == RESOLVED else 0
+        self._drift(x_in, v, x_out, dt, index, count)
+        return status
 
     @ti.kernel
     def _drift_kernel(
         self, x_in: ti.template(), v: ti.template(), x_out: ti.template(), dt: float,
         index: ti.i32,
     ):  # fmt: skip
-        self._drift(x_in, v, x_out, dt, index)
+        self._drift(x_in, v, x_out, dt, index, self.model.particle_count)
 
     @ti.kernel
     def _forces_kernel(
@@ -351,10 +382,11 @@ class SymplecticEulerSolver:
                 v[i] += self.face_dv[i] / self.face_count[i]
 
     @ti.func
-    def _drift(self, x_in, v, x_out, dt, index):
-        """Positions after self-collision, with its separation (``corr``, not a velocity)."""
+    def _drift(self, x_in, v, x_out, dt, index, count):
+        """Positions of particles 0..count-1 after self-collision, with its separation
+        (``corr``, not a velocity)."""
         sc = self.model.self_collider
-        for i in range(self.model.particle_count):
+        for i in range(count):
             self._position(i, x_in, x_out, v[i] + sc.corr[i], dt, index)
             if ti.static(self.has_bodies):
                 v[i] -= self.push[i]
