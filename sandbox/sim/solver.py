@@ -292,15 +292,26 @@ class SymplecticEulerSolver:
         the part of it that only restores the contact thickness, which the particle does
         not keep (:meth:`BodyCollider.respond_split`): it keeps ``v_move − push``.
         """
+        return self._contact(i, x_in, self._free_velocity(i, v_in, gravity, damping, dt), dt)
+
+    @ti.func
+    def _free_velocity(self, i, v_in, gravity, damping, dt):
+        """Eq. 2: v(t+dt) = v(t) + dt F(t)/m, F = F_int + m g − γ m v(t) (0 if pinned)."""
         m = self.model
         w = m.particle_inv_mass[i]
         v_new = ti.Vector([0.0, 0.0, 0.0])
-        push = ti.Vector([0.0, 0.0, 0.0])
         if w > 0.0:
-            # Eq. 2: v(t+dt) = v(t) + dt F(t)/m, F = F_int + m g − γ m v(t)
             f = self._gathered_force(i)
             v_new = v_in[i] + dt * (f * w + gravity[None] - damping[None] * v_in[i])
-            # contact (§2.5): each collider revises v(t+dt) before the position update
+        return v_new
+
+    @ti.func
+    def _contact(self, i, x_in, v_new, dt):
+        """Contact (§2.5): each body collider revises v(t+dt) of particle i before the
+        position update. Returns ``(v_move, push)`` as :meth:`_velocity`."""
+        m = self.model
+        push = ti.Vector([0.0, 0.0, 0.0])
+        if m.particle_inv_mass[i] > 0.0:
             for c in ti.static(m.colliders):
                 v_move, v_keep = c.respond_split(x_in[i], v_new, dt)
                 push += v_move - v_keep
@@ -325,6 +336,15 @@ class SymplecticEulerSolver:
             for i in range(self.model.particle_count):
                 self._position(i, x_in, x_out, v_out[i], dt, index)
                 v_out[i] -= self.push[i]
+        elif ti.static(self.has_bodies):
+            # two loops: the force gather and the contact queries, each compiled on its
+            # own, run faster than one loop doing both (measured on the draped sheet)
+            for i in range(self.model.particle_count):
+                v_out[i] = self._free_velocity(i, v_in, gravity, damping, dt)
+            for i in range(self.model.particle_count):
+                v_new, push = self._contact(i, x_in, v_out[i], dt)
+                v_out[i] = v_new - push
+                self._position(i, x_in, x_out, v_new, dt, index)
         else:
             for i in range(self.model.particle_count):
                 v_new, push = self._velocity(i, x_in, v_in, gravity, damping, dt)
@@ -333,11 +353,16 @@ class SymplecticEulerSolver:
 
     @ti.func
     def _kick(self, x_in, v_in, v_out, gravity, damping, dt):
-        for i in range(self.model.particle_count):
-            v_new, push = self._velocity(i, x_in, v_in, gravity, damping, dt)
-            v_out[i] = v_new
-            if ti.static(self.has_bodies):
+        if ti.static(self.has_bodies):  # two loops, as in :meth:`_kick_drift`
+            for i in range(self.model.particle_count):
+                v_out[i] = self._free_velocity(i, v_in, gravity, damping, dt)
+            for i in range(self.model.particle_count):
+                v_new, push = self._contact(i, x_in, v_out[i], dt)
+                v_out[i] = v_new
                 self.push[i] = push
+        else:
+            for i in range(self.model.particle_count):
+                v_out[i] = self._free_velocity(i, v_in, gravity, damping, dt)
         if ti.static(self.has_faces):
             self._face_pass(x_in, v_out, dt)
 
