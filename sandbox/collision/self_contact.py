@@ -27,7 +27,8 @@ positions x_b of the last rebuild. Moving every vertex by at most margin/2 chang
 pair's distance by at most margin, so as long as x(t) and x(t+dt) stay within margin/2 of
 x_b, no pair outside the list can come within h during the step. The list is rebuilt
 (a dense grid of vertices and edge midpoints, in Taichi) when a vertex would leave that bound; the
-margin grows with the step's largest displacement so large steps stay covered.
+margin grows with the step's largest displacement so large steps stay covered. In a slow
+step where only a few vertices drifted, only their pairs are found again (:meth:`refresh`).
 
 Excluded pairs: a vertex and a triangle that contains it, two edges with a common vertex,
 and pairs joined by a seam (a vertex with a triangle or an edge holding its seam partner or
