@@ -197,6 +197,11 @@ class BodyCollider:
                             self.cell_entries[slot] = t
                         else:
                             self.overflow[None] = 1
+        # each cell's triangles in increasing order: the parallel fill above enters them in
+        # any order, and a vertex equally close to two triangles takes the first one's
+        # normal, so the same run would otherwise not give the same result
+        for c in range(self.cell_fill.shape[0]):
+            _sort_range(self.cell_entries, self.cell_start[c], self.cell_start[c + 1])
         # vertex normals (area-weighted) and the vertex grid
         for i in self.vertex_normal:
             self.vertex_normal[i] = ti.Vector([0.0, 0.0, 0.0])
@@ -226,6 +231,8 @@ class BodyCollider:
         for i in self.body_x:
             cid = self._cell_index(self._cell_of(self.body_x[i]))
             self.v_entries[self.v_cell_start[cid] + ti.atomic_add(self.v_cell_fill[cid], 1)] = i
+        for c in range(self.v_cell_fill.shape[0]):
+            _sort_range(self.v_entries, self.v_cell_start[c], self.v_cell_start[c + 1])
 
     # ------------------------------------------------------------------ response
     @ti.func
@@ -400,6 +407,18 @@ class BodyCollider:
         if out > 0.0:
             v_keep = v_new - out * cn
         return v_new, v_keep
+
+
+@ti.func
+def _sort_range(a, lo, hi):
+    """Insertion sort of a[lo:hi] (a grid cell's few entries)."""
+    for i in range(lo + 1, hi):
+        key = a[i]
+        j = i - 1
+        while j >= lo and a[ti.max(j, lo)] > key:  # (``and`` does not short-circuit)
+            a[j + 1] = a[j]
+            j -= 1
+        a[j + 1] = key
 
 
 @ti.func
