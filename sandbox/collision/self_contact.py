@@ -1106,13 +1106,21 @@ class SelfCollider:
     def warm_up(self, x, v) -> None:
         """Compile the kernels a run reaches only now and then (the partial refresh, the
         fallbacks), so neither a scripted run's timing nor a live window stalls on them
-        mid-run. Call before the first step: the list is then rebuilt at that step."""
+        mid-run. The list, its build positions and the velocities are put back as they
+        were, so a run takes the same path with or without it."""
+        fields = (self.pair, self.pair_kind, self.pair_dist0, self.x_build, v)
+        saved = [f.to_numpy() for f in fields]
+        scalars = (self.pair_count, self.needs_build, self.fresh, self.margin, self.swept,
+                   self.refreshes, self.rebuilds, self.overflow)  # fmt: skip
+        saved_scalars = [f[None] for f in scalars]
         self._prepare_kernel(x, v, 0.0)
         self._refresh_kernel(x, v, 0.0)
         self._passes_kernel(x, v, 0.0)
         self._mark_kernel(x, v, 0.0)
-        self.refreshes[None] = 0
-        self.needs_build[None] = 1
+        for f, a in zip(fields, saved, strict=True):
+            f.from_numpy(a)
+        for f, a in zip(scalars, saved_scalars, strict=True):
+            f[None] = a
 
     def check_capacity(self):
         if self.overflow[None]:
