@@ -468,6 +468,37 @@ class SelfCollider:
                                     sweep_k, v, dt, f < e)  # fmt: skip
 
     @ti.func
+    def _triangle_query(self, t, x, v, dt, query, reach):
+        """Triangle t's query for the list: its corners (tv, a, b, c), its box grown by
+        ``query`` and that box's cells, its largest relative motion this step, and its
+        swept box this step grown by ``reach``."""
+        tv = self.model.tri_indices[t]
+        a, b, c = x[tv[0]], x[tv[1]], x[tv[2]]
+        box_lo, box_hi = ti.min(a, b, c) - query, ti.max(a, b, c) + query
+        lo, hi = self._cell_range(box_lo, box_hi)
+        tri_move = ti.max(self._motion(tv[0], v, dt), self._motion(tv[1], v, dt),
+                          self._motion(tv[2], v, dt))  # fmt: skip
+        ya, yb, yc = a + dt * v[tv[0]], b + dt * v[tv[1]], c + dt * v[tv[2]]
+        t_lo = ti.min(ti.min(a, b, c), ti.min(ya, yb, yc)) - reach
+        t_hi = ti.max(ti.max(a, b, c), ti.max(ya, yb, yc)) + reach
+        return tv, a, b, c, box_lo, box_hi, lo, hi, tri_move, t_lo, t_hi
+
+    @ti.func
+    def _edge_query(self, e, x, v, dt, query, reach, grow):
+        """Edge e's query: its ends, its box grown by ``query``, its largest relative
+        motion, its swept box grown by ``reach``, and the cells of its box grown by
+        ``grow`` (other edges are binned by midpoint)."""
+        ea = self.edge[e]
+        p0, p1 = x[ea[0]], x[ea[1]]
+        box_lo, box_hi = ti.min(p0, p1) - query, ti.max(p0, p1) + query
+        move_a = ti.max(self._motion(ea[0], v, dt), self._motion(ea[1], v, dt))
+        r0, r1 = p0 + dt * v[ea[0]], p1 + dt * v[ea[1]]
+        a_lo = ti.min(ti.min(p0, p1), ti.min(r0, r1)) - reach
+        a_hi = ti.max(ti.max(p0, p1), ti.max(r0, r1)) + reach
+        lo, hi = self._cell_range(ti.min(p0, p1) - grow, ti.max(p0, p1) + grow)
+        return ea, p0, p1, box_lo, box_hi, move_a, a_lo, a_hi, lo, hi
+
+    @ti.func
     def rebuild(self, x, v, dt):
         """The candidate list at the current positions (call when ``needs_build``).
 
@@ -515,16 +546,9 @@ class SelfCollider:
         self.pair_count[None] = 0
         # vertex-triangle
         for t in range(m.tri_count):
-            tv = m.tri_indices[t]
-            a, b, c = x[tv[0]], x[tv[1]], x[tv[2]]
-            box_lo, box_hi = ti.min(a, b, c) - query, ti.max(a, b, c) + query
-            lo, hi = self._cell_range(box_lo, box_hi)
-            tri_move = ti.max(self._motion(tv[0], v, dt), self._motion(tv[1], v, dt),
-                              self._motion(tv[2], v, dt))  # fmt: skip
-            # the triangle's swept box this step, grown by the reach
-            ya, yb, yc = a + dt * v[tv[0]], b + dt * v[tv[1]], c + dt * v[tv[2]]
-            t_lo = ti.min(ti.min(a, b, c), ti.min(ya, yb, yc)) - reach
-            t_hi = ti.max(ti.max(a, b, c), ti.max(ya, yb, yc)) + reach
+            tv, a, b, c, box_lo, box_hi, lo, hi, tri_move, t_lo, t_hi = self._triangle_query(
+                t, x, v, dt, query, reach
+            )
             for i in range(lo[0], hi[0] + 1):
                 for j in range(lo[1], hi[1] + 1):
                     # the vertices of cells (i, j, lo..hi) are consecutive entries
@@ -537,14 +561,9 @@ class SelfCollider:
         # edge-edge
         grow = query + self.half_edge[None]
         for e in range(self.edge_count):
-            ea = self.edge[e]
-            p0, p1 = x[ea[0]], x[ea[1]]
-            box_lo, box_hi = ti.min(p0, p1) - query, ti.max(p0, p1) + query
-            move_a = ti.max(self._motion(ea[0], v, dt), self._motion(ea[1], v, dt))
-            r0, r1 = p0 + dt * v[ea[0]], p1 + dt * v[ea[1]]
-            a_lo = ti.min(ti.min(p0, p1), ti.min(r0, r1)) - reach
-            a_hi = ti.max(ti.max(p0, p1), ti.max(r0, r1)) + reach
-            lo, hi = self._cell_range(ti.min(p0, p1) - grow, ti.max(p0, p1) + grow)
+            ea, p0, p1, box_lo, box_hi, move_a, a_lo, a_hi, lo, hi = self._edge_query(
+                e, x, v, dt, query, reach, grow
+            )
             # this edge's own cell (as binned): the cells before it in row-major order are
             # left to their edges, which find this one
             own = self._cell_of(0.5 * (p0 + p1))
@@ -685,15 +704,9 @@ class SelfCollider:
         # vertex-triangle: a triangle with a marked corner against every vertex, any other
         # triangle against the marked vertices
         for t in range(m.tri_count):
-            tv = m.tri_indices[t]
-            a, b, c = x[tv[0]], x[tv[1]], x[tv[2]]
-            box_lo, box_hi = ti.min(a, b, c) - query, ti.max(a, b, c) + query
-            lo, hi = self._cell_range(box_lo, box_hi)
-            tri_move = ti.max(self._motion(tv[0], v, dt), self._motion(tv[1], v, dt),
-                              self._motion(tv[2], v, dt))  # fmt: skip
-            ya, yb, yc = a + dt * v[tv[0]], b + dt * v[tv[1]], c + dt * v[tv[2]]
-            t_lo = ti.min(ti.min(a, b, c), ti.min(ya, yb, yc)) - reach
-            t_hi = ti.max(ti.max(a, b, c), ti.max(ya, yb, yc)) + reach
+            tv, a, b, c, box_lo, box_hi, lo, hi, tri_move, t_lo, t_hi = self._triangle_query(
+                t, x, v, dt, query, reach
+            )
             corner = self.marked[tv[0]] + self.marked[tv[1]] + self.marked[tv[2]] > 0
             for i in range(lo[0], hi[0] + 1):
                 for j in range(lo[1], hi[1] + 1):
@@ -713,14 +726,9 @@ class SelfCollider:
         # edge-edge: every edge against the marked edges (a marked edge: those after it)
         grow = query + self.half_edge[None]
         for e in range(self.edge_count):
-            ea = self.edge[e]
-            p0, p1 = x[ea[0]], x[ea[1]]
-            box_lo, box_hi = ti.min(p0, p1) - query, ti.max(p0, p1) + query
-            move_a = ti.max(self._motion(ea[0], v, dt), self._motion(ea[1], v, dt))
-            r0, r1 = p0 + dt * v[ea[0]], p1 + dt * v[ea[1]]
-            a_lo = ti.min(ti.min(p0, p1), ti.min(r0, r1)) - reach
-            a_hi = ti.max(ti.max(p0, p1), ti.max(r0, r1)) + reach
-            lo, hi = self._cell_range(ti.min(p0, p1) - grow, ti.max(p0, p1) + grow)
+            ea, p0, p1, box_lo, box_hi, move_a, a_lo, a_hi, lo, hi = self._edge_query(
+                e, x, v, dt, query, reach, grow
+            )
             own_marked = self._edge_marked(e)
             for i in range(lo[0], hi[0] + 1):
                 for j in range(lo[1], hi[1] + 1):
