@@ -37,7 +37,14 @@ SEW_GAP_M = 2e-3
 """Sewing ends when every seam spring is shorter than this [m] (or at SEW_TIME_LIMIT_S)."""
 SEW_TIME_LIMIT_S = 1.5
 SEW_STIFFNESS_FACTOR = 0.05
-"""Seam springs pull at this fraction of their final stiffness while sewing (no gravity)."""
+"""While sewing (no gravity) the seam springs pull at this fraction of their final stiffness,
+and the cloth (membrane and bending) is softened by the same factor, so the explicit step can
+be 1/sqrt(factor) = 4.5x longer (the stable step scales as 1/sqrt(stiffness)). Softening the
+cloth too matters for stiff fabrics: a placed panel starts a few per cent strained in places
+(it is wrapped around the body), and at full stiffness that strain energy shook the cloth at
+a median 10-17 m/s while the seams closed (polyester at 1.5 cm; speed ~ strain x
+sqrt(E/density)). Every step then rebuilt the self-collision list, and sewing ran into
+its time limit with the seams still open (ad-hoc runs, docs/drape.md "Sewing")."""
 SEW_SELF_COLLISION = True
 """Self-collision during the sewing phase too. Off, seams close faster and a panel that starts
 on the wrong side of another can pass through it, but the garment keeps those crossings
@@ -508,9 +515,11 @@ def sew(
     """Sewing phase: close the seams without gravity, then stiffen them and turn gravity on.
 
     The seam springs pull at :data:`SEW_STIFFNESS_FACTOR` of their final stiffness (as stiff
-    as the cloth: the seams then hold the garment's weight) until every spring is shorter
-    than ``gap_m`` or ``time_limit_s`` of simulated time has passed; then they stiffen over
-    :data:`SEW_RAMP_FRAMES` frames. With ``self_collision=False`` the cloth does not collide
+    as the cloth: the seams then hold the garment's weight), on cloth softened by the same
+    factor and (explicit integrator) with a time step 1/sqrt(factor) longer, until every
+    spring is shorter than ``gap_m`` or ``time_limit_s`` of simulated time has passed; then
+    cloth and seams stiffen together over :data:`SEW_RAMP_FRAMES` frames at the scene's own
+    time step. With ``self_collision=False`` the cloth does not collide
     with itself while sewing (seam edges that start on the wrong side of another panel, like a
     sleeve cap over the bodice, can then reach their partner). Returns ``{"sew_sim_time_s",
     "sew_wall_time_s", "sew_frames", "sew_gap_m"}``.
@@ -534,12 +543,16 @@ def sew(
     frame_s = scene.dt_s * scene.steps_per_frame
     frames = max(1, math.ceil(time_limit_s / frame_s))
     ramp = [SEW_STIFFNESS_FACTOR ** (1 - k / SEW_RAMP_FRAMES) for k in range(SEW_RAMP_FRAMES + 1)]
+    sew_steps = scene.steps_per_frame  # the soft cloth's stable step is 1/sqrt(factor) longer
+    if scene.spec.simulation.integrator == "symplectic_euler":
+        sew_steps = max(1, math.ceil(scene.steps_per_frame * math.sqrt(ramp[0]) - 1e-9))
     model.set_seam_stiffness(k_final * ramp[0])
+    model.scale_cloth_stiffness(ramp[0])
     gap = math.inf
     done = 0
     try:
         while done < frames:
-            solver.advance(state, control, scene.dt_s, scene.steps_per_frame)
+            solver.advance(state, control, frame_s / sew_steps, sew_steps)
             done += 1
             bad = solver.first_bad()
             if bad is not None:
@@ -549,12 +562,14 @@ def sew(
             gap = float(np.max(np.linalg.norm(x[pairs[:, 0]] - x[pairs[:, 1]], axis=1) - rest))
             if gap < gap_m:
                 break
-        for f in ramp[1:]:  # stiffen the closed seams, then let gravity act
+        for f in ramp[1:]:  # stiffen the closed seams and the cloth, then let gravity act
             model.set_seam_stiffness(k_final * f)
+            model.scale_cloth_stiffness(f)
             solver.advance(state, control, scene.dt_s, scene.steps_per_frame)
             done += 1
     finally:
         model.set_seam_stiffness(k_final)
+        model.scale_cloth_stiffness(1.0)
         control.gravity[None] = gravity
         solver.self_collider = saved
     out.update(sew_sim_time_s=done * frame_s, sew_wall_time_s=time.perf_counter() - t0,
