@@ -37,24 +37,23 @@ SEW_GAP_M = 2e-3
 """Sewing ends when every seam spring is shorter than this [m] (or at SEW_TIME_LIMIT_S)."""
 SEW_TIME_LIMIT_S = 1.5
 SEW_STIFFNESS_FACTOR = 0.05
-"""While sewing (no gravity) the seam springs pull at this fraction of their final stiffness,
-and the cloth (membrane and bending) is softened by the same factor, so the explicit step can
-be 1/sqrt(factor) = 4.5x longer (the stable step scales as 1/sqrt(stiffness)). Softening the
-cloth too matters for stiff fabrics: a placed panel starts a few per cent strained in places
-(it is wrapped around the body), and at full stiffness that strain energy shook the cloth at
-a median 10-17 m/s while the seams closed (polyester at 1.5 cm; speed ~ strain x
-sqrt(E/density)). Every step then rebuilt the self-collision list, and sewing ran into
-its time limit with the seams still open (ad-hoc runs, docs/drape.md "Sewing")."""
+"""Seam springs pull at this fraction of their final stiffness while sewing (no gravity)."""
+SEW_MAX_DT_S = 1e-4
+"""While sewing, an explicit scene whose step is shorter than this [s] (a stiff fabric or a
+fine mesh) softens its cloth (membrane and bending) so that this step is stable (the stable
+step goes as 1/sqrt(stiffness)), but by no more than :data:`SEW_STIFFNESS_FACTOR`; the seams
+close with that longer step. A placed panel starts a few per cent strained where it is
+wrapped around the body, and at full stiffness that strain energy shook a stiff fabric at a
+median 10-17 m/s for the whole sewing phase (polyester at 1.5 cm, dt = 20 us; speed ~ strain
+x sqrt(E/density)): every step rebuilt the self-collision list, and the seams were still
+open at the time limit (ad-hoc runs, docs/drape.md "Run"). Soft fabrics sew as before: with
+jersey at 3 cm (0.4 ms steps) softened too and sewn at 1.9 ms steps, four sleeved tops of
+the quick gallery ended with 1-4 vertices inside the body."""
 SEW_SELF_COLLISION = True
 """Self-collision during the sewing phase too. Off, seams close faster and a panel that starts
 on the wrong side of another can pass through it, but the garment keeps those crossings
 (gallery at 3 cm: 44 intersecting pairs on the T-shirt and 110 on the A-line dress without
 it, 5 and 0 with it, for about 3 x the wall time)."""
-SEW_MAX_DT_S = 1e-4
-"""The longer sewing step stops growing at this [s] (or at the scene's own step, if that is
-longer): a longer step moves the cloth further against the body's contact layer per step.
-Without the cap, jersey at 3 cm sewed at 1.9 ms steps and the quick gallery's T-shirt,
-long-sleeve shirt, raglan top and blouse each ended with 1-4 vertices inside the body."""
 SEW_RAMP_FRAMES = 6
 """Frames over which the seams stiffen geometrically to their final stiffness."""
 DRAPE_MIN_TIME_S = 0.5
@@ -520,15 +519,15 @@ def sew(
     """Sewing phase: close the seams without gravity, then stiffen them and turn gravity on.
 
     The seam springs pull at :data:`SEW_STIFFNESS_FACTOR` of their final stiffness (as stiff
-    as the cloth: the seams then hold the garment's weight), on cloth softened by the same
-    factor and (explicit integrator) with a time step 1/sqrt(factor) longer (at most
-    :data:`SEW_MAX_DT_S`), until every
-    spring is shorter than ``gap_m`` or ``time_limit_s`` of simulated time has passed; then
-    cloth and seams stiffen together over :data:`SEW_RAMP_FRAMES` frames at the scene's own
-    time step. With ``self_collision=False`` the cloth does not collide
+    as the cloth: the seams then hold the garment's weight) until every spring is shorter
+    than ``gap_m`` or ``time_limit_s`` of simulated time has passed; a stiff cloth is
+    softened meanwhile so that it sews at a longer explicit step (:data:`SEW_MAX_DT_S`).
+    Then seams and cloth stiffen together over :data:`SEW_RAMP_FRAMES` frames at the
+    scene's own step. With ``self_collision=False`` the cloth does not collide
     with itself while sewing (seam edges that start on the wrong side of another panel, like a
     sleeve cap over the bodice, can then reach their partner). Returns ``{"sew_sim_time_s",
-    "sew_wall_time_s", "sew_frames", "sew_gap_m"}``.
+    "sew_wall_time_s", "sew_frames", "sew_gap_m", "sew_dt_s", "sew_cloth_stiffness_factor"}``
+    (the last two: the sewing frames' step [s] and the cloth's stiffness factor in them).
     """
     from sandbox import runtime
     from sandbox.scene.run import SimulationDiverged
@@ -549,12 +548,14 @@ def sew(
     frame_s = scene.dt_s * scene.steps_per_frame
     frames = max(1, math.ceil(time_limit_s / frame_s))
     ramp = [SEW_STIFFNESS_FACTOR ** (1 - k / SEW_RAMP_FRAMES) for k in range(SEW_RAMP_FRAMES + 1)]
-    sew_steps = scene.steps_per_frame  # the soft cloth's stable step is 1/sqrt(factor) longer
-    if scene.spec.simulation.integrator == "symplectic_euler":
-        sew_steps = max(1, math.ceil(scene.steps_per_frame * math.sqrt(ramp[0]) - 1e-9),
-                        math.ceil(frame_s / max(scene.dt_s, SEW_MAX_DT_S) - 1e-9))
+    # A stiff cloth is softened as far as a step of SEW_MAX_DT_S needs (the stable step goes
+    # as 1/sqrt(stiffness)), at most down to the seams' factor; a soft one sews as it is.
+    soft, sew_steps = 1.0, scene.steps_per_frame
+    if scene.spec.simulation.integrator == "symplectic_euler" and scene.dt_s < SEW_MAX_DT_S:
+        soft = max(SEW_STIFFNESS_FACTOR, (scene.dt_s / SEW_MAX_DT_S) ** 2)
+        sew_steps = max(1, math.ceil(scene.steps_per_frame * math.sqrt(soft) - 1e-9))
     model.set_seam_stiffness(k_final * ramp[0])
-    model.scale_cloth_stiffness(ramp[0])
+    model.scale_cloth_stiffness(soft)
     gap = math.inf
     done = 0
     try:
@@ -569,9 +570,9 @@ def sew(
             gap = float(np.max(np.linalg.norm(x[pairs[:, 0]] - x[pairs[:, 1]], axis=1) - rest))
             if gap < gap_m:
                 break
-        for f in ramp[1:]:  # stiffen the closed seams and the cloth, then let gravity act
+        for k, f in enumerate(ramp[1:], 1):  # stiffen seams and cloth, then gravity acts
             model.set_seam_stiffness(k_final * f)
-            model.scale_cloth_stiffness(f)
+            model.scale_cloth_stiffness(soft ** (1 - k / SEW_RAMP_FRAMES))
             solver.advance(state, control, scene.dt_s, scene.steps_per_frame)
             done += 1
     finally:
@@ -580,7 +581,8 @@ def sew(
         control.gravity[None] = gravity
         solver.self_collider = saved
     out.update(sew_sim_time_s=done * frame_s, sew_wall_time_s=time.perf_counter() - t0,
-               sew_frames=done, sew_gap_m=gap)  # fmt: skip
+               sew_frames=done, sew_gap_m=gap, sew_dt_s=frame_s / sew_steps,
+               sew_cloth_stiffness_factor=soft)  # fmt: skip
     return out
 
 
