@@ -9,13 +9,16 @@ meshed at 2 cm: a seam spring's stretch grows with the seam's point spacing, and
 sheath dress's largest gap was 2.6 mm (2 Dec 2026), at 2 cm 1.4 mm.
 """
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
 from sandbox.mannequin import build_mannequin
-from sandbox.scene.drape import drape
+from sandbox.scene.drape import drape, hang_metrics, meets_acceptance
+from sandbox.scene.gallery import _row, write_table
 
-GARMENTS = {  # mesh edge [m], and the landmark the garment hangs from (its top stays above)
+GARMENTS = {  # mesh edge [m] and the landmark the garment hangs from (hang_metrics)
     "tank-top": (0.03, "shoulder_point_left"),
     "sheath-dress": (0.02, "shoulder_point_left"),
     "pencil-skirt": (0.03, "waist_front"),
@@ -39,6 +42,43 @@ def test_library_garment_meets_the_acceptance_on_a_coarse_mesh(name, mannequin, 
     assert m["seam_count"] > 0 and m["seam_gap_max_m"] <= 2e-3
     assert m["vertices_inside_body"] == 0 and m["penetration_max_m"] <= 1e-3
     assert m["intersecting_triangle_pairs"] == 0
-    top = x[:, 1].max()
-    anchor = float(mannequin.landmarks[hangs_from][1])
-    assert top > anchor - 0.03, f"{name} slid down: its top is {anchor - top:.3f} m below"
+    assert m["hangs_from"] == hangs_from and not m["slid_off"], m["top_below_anchor_m"]
+    assert m["meets_acceptance"]
+
+
+BODY = SimpleNamespace(landmarks={"shoulder_point_left": [0.18, 1.42, 0.0],
+                                  "waist_front": [0.0, 1.04, 0.1]})  # fmt: skip
+
+
+def test_a_top_hangs_from_the_shoulders_a_skirt_from_the_waist_and_a_slide_is_flagged():
+    top = np.array([[0.0, 1.45, 0.0], [0.0, 0.9, 0.0]])  # placed above the shoulders
+    m = hang_metrics(top, top - [0.0, 0.02, 0.0], BODY)  # settled 2 cm
+    assert m["hangs_from"] == "shoulder_point_left" and not m["slid_off"]
+    assert m["top_below_anchor_m"] == pytest.approx(-0.01)
+    skirt = np.array([[0.0, 1.05, 0.0], [0.0, 0.5, 0.0]])
+    m = hang_metrics(skirt, skirt - [0.0, 0.09, 0.0], BODY)  # the circle skirt's 9 cm
+    assert m["hangs_from"] == "waist_front" and m["slid_off"]
+    assert m["top_below_anchor_m"] == pytest.approx(0.08)
+    assert hang_metrics(skirt, skirt + np.nan, BODY)["slid_off"]  # NaN never passes
+
+
+def test_the_gallery_table_counts_the_garments_that_meet_the_acceptance(tmp_path):
+    good = {"vertex_count": 900, "wall_time_s": 20.0, "sim_time_s": 1.0, "converged": True,
+            "seam_gap_max_m": 1.5e-3, "penetration_max_m": 0.0, "vertices_inside_body": 0,
+            "intersecting_triangle_pairs": 0, "slid_off": False, "top_below_anchor_m": -0.01,
+            "nan_positions": 0, "fabric": "jersey"}  # fmt: skip
+    good["meets_acceptance"] = meets_acceptance(good)
+    gap = {**good, "seam_gap_max_m": 2.5e-3, "wall_time_s": 40.0}
+    gap["meets_acceptance"] = meets_acceptance(gap)
+    slid = {**good, "slid_off": True, "top_below_anchor_m": 0.08, "wall_time_s": 30.0}
+    slid["meets_acceptance"] = meets_acceptance(slid)
+    assert good["meets_acceptance"] and not gap["meets_acceptance"]
+    assert not slid["meets_acceptance"]
+    assert not meets_acceptance({**good, "converged": False})
+    assert not meets_acceptance({**good, "intersecting_triangle_pairs": 1})
+    assert meets_acceptance({**good, "penetration_max_m": 0.9e-3})
+    assert not meets_acceptance({**good, "penetration_max_m": 1.1e-3})
+    rows = [_row("a", good), _row("b", gap), _row("c", slid)]
+    text = write_table(tmp_path / "gallery.md", rows).read_text()
+    assert "1 of 3 meet the acceptance; median wall time 30 s." in text
+    assert "| c | jersey | 900 | 30 | yes | 1.50 | 0 | 0 | +8.0 | no |" in text

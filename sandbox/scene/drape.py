@@ -620,7 +620,52 @@ def drape_metrics(scene, result, *, build_s: float = 0.0) -> dict:
         nan_positions=int(np.count_nonzero(~np.isfinite(result.positions))),
     )
     m.update(ease_cm(result.positions, model.tri_indices_np, mannequin, scene.placement_body))
+    m.update(hang_metrics(model.initial_positions_np, result.positions, mannequin))
+    m["meets_acceptance"] = meets_acceptance(m)
     return m
+
+
+SLIDE_TOLERANCE_M = 0.03
+"""A garment has slid off when its top ends more than this [m] below the landmark it hangs
+from (:func:`hang_metrics`)."""
+ACCEPT_SEAM_GAP_M = 2e-3
+ACCEPT_PENETRATION_M = 1e-3
+
+
+def hang_metrics(x_start: np.ndarray, x_end: np.ndarray, mannequin) -> dict:
+    """Which landmark the garment hangs from and whether it slid off (issue 5's acceptance).
+
+    A garment whose placed top (``x_start`` (n, 3) [m], highest y) is above half-way between
+    the waist and the shoulder points hangs from the shoulders (``shoulder_point_left``),
+    any other from the waist (``waist_front``). Returns ``hangs_from`` (the landmark),
+    ``top_below_anchor_m`` (the landmark's height minus the final top's [m]; negative: the
+    top is above it) and ``slid_off`` (that distance is more than
+    :data:`SLIDE_TOLERANCE_M`).
+    """
+    lm = mannequin.landmarks
+    shoulder, waist = float(lm["shoulder_point_left"][1]), float(lm["waist_front"][1])
+    start_top = float(np.max(np.asarray(x_start)[:, 1]))
+    name = "shoulder_point_left" if start_top > 0.5 * (shoulder + waist) else "waist_front"
+    below = float(lm[name][1]) - float(np.max(np.asarray(x_end)[:, 1]))  # NaN: slid_off
+    return {"hangs_from": name, "top_below_anchor_m": below,
+            "slid_off": bool(not below <= SLIDE_TOLERANCE_M)}  # fmt: skip
+
+
+def meets_acceptance(m: dict) -> bool:
+    """Issue 5's acceptance for one drape's metrics: converged by the stop rule, largest seam
+    gap <= 2 mm, no vertex inside the body deeper than 1 mm, no intersecting cloth triangle
+    pairs, not slid off (:func:`hang_metrics`), no NaN."""
+    gap = m.get("seam_gap_max_m")
+    depth = m.get("penetration_max_m")
+    return bool(
+        m.get("converged")
+        and (gap is None or gap <= ACCEPT_SEAM_GAP_M)
+        and depth is not None
+        and depth <= ACCEPT_PENETRATION_M
+        and m.get("intersecting_triangle_pairs") == 0
+        and not m.get("slid_off", False)
+        and m.get("nan_positions", 0) == 0
+    )
 
 
 def _measurements_dict(mannequin) -> dict | None:

@@ -113,6 +113,9 @@ def _row(name: str, m: dict) -> dict:
         "ease_bust_cm": m.get("ease_bust_cm"),
         "ease_waist_cm": m.get("ease_waist_cm"),
         "ease_hip_cm": m.get("ease_hip_cm"),
+        "top_below_anchor_m": m.get("top_below_anchor_m"),
+        "slid_off": m.get("slid_off"),
+        "meets_acceptance": m.get("meets_acceptance"),
     }
 
 
@@ -175,28 +178,39 @@ def write_table(path, rows: list[dict], header: str = "") -> Path:
     lines += ["![gallery](gallery.png)", ""]
     lines += [
         "| garment | fabric | vertices | wall time (s) | converged | seam gap max (mm) | "
-        "inside body | intersecting pairs | ease bust (cm) | ease waist (cm) | ease hip (cm) |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
+        "inside body | intersecting pairs | top below anchor (cm) | meets acceptance | "
+        "ease bust (cm) | ease waist (cm) | ease hip (cm) |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
+    passed = 0
     for r in rows:
         if "error" in r:
-            lines.append(
-                f"| {r['garment']} | failed: {r['error'][:120]} |  |  |  |  |  |  |  |  |  |"
-            )
+            lines.append(f"| {r['garment']} | failed: {r['error'][:120]} |" + "  |" * 11)
             continue
+        passed += bool(r.get("meets_acceptance"))
+        below = r.get("top_below_anchor_m")
         lines.append(
             f"| {r['garment']} | {r['fabric']} | {r['vertices']} | {r['wall_time_s']:.0f} | "
             f"{'yes' if r['converged'] else 'no'} | {_mm(r['seam_gap_max_m'])} | "
             f"{r['vertices_inside_body']} | {r['intersecting_triangle_pairs']} | "
+            f"{'-' if below is None else f'{below * 100:+.1f}'} | "
+            f"{'yes' if r.get('meets_acceptance') else 'no'} | "
             f"{_cm(r['ease_bust_cm'])} | {_cm(r['ease_waist_cm'])} | {_cm(r['ease_hip_cm'])} |"
         )
+    times = sorted(r["wall_time_s"] for r in rows if "error" not in r)
+    median = f"{np.median(times):.0f} s" if times else "-"
     lines += [
+        "",
+        f"{passed} of {len(rows)} meet the acceptance; median wall time {median}.",
         "",
         "Seam gap: the largest seam spring stretch. Inside body: garment vertices inside the "
         "closed mannequin. Intersecting pairs: garment triangle pairs that cross (exact test). "
-        "Ease: garment girth minus body girth at the bust, waist and hip heights (convex hull "
-        "of the section, as the tape measure); '-' where the garment does not reach. See "
-        "docs/drape.md.",
+        "Top below anchor: how far the garment's highest point ends below the landmark it "
+        "hangs from (shoulder point or waist; negative: above it); more than 3 cm counts as "
+        "slid off. Meets acceptance (issue 5): converged, seam gap <= 2 mm, nothing inside "
+        "the body deeper than 1 mm, no intersecting pairs, not slid off. Ease: garment girth "
+        "minus body girth at the bust, waist and hip heights (convex hull of the section, as "
+        "the tape measure); '-' where the garment does not reach. See docs/drape.md.",
         "",
     ]
     return write_text(Path(path), "\n".join(lines))
