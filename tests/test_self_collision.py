@@ -317,3 +317,29 @@ def test_partial_refreshes_keep_every_pair_closer_than_the_thickness_in_the_list
             checks += 1
     assert live.refreshes[None] > 20 and checks > 500
     assert missing == 0
+
+
+def test_rigid_impact_zones_keep_each_zones_momentum_and_move_rigidly():
+    """Bridson et al. §7.4: every zone moves as one rigid body with the linear and angular
+    momentum its vertices had; a zone holding a pinned vertex stands still."""
+    from sandbox.collision.self_contact import _rigid_velocities
+
+    rng = np.random.default_rng(3)
+    x = rng.normal(size=(30, 3))
+    v = rng.normal(size=(30, 3))
+    m = rng.uniform(0.5, 2.0, 30)
+    inv_m = 1.0 / m
+    zone = np.repeat([4, 9, 2], 10)
+    inv_m[25] = 0.0  # zone 2 holds a pinned vertex
+    out = _rigid_velocities(x, v, m, inv_m, zone)
+    for z in (4, 9):
+        s = zone == z
+        xc = (m[s, None] * x[s]).sum(0) / m[s].sum()
+        assert np.allclose((m[s, None] * out[s]).sum(0), (m[s, None] * v[s]).sum(0))
+        r = x[s] - xc
+        assert np.allclose((m[s, None] * np.cross(r, out[s])).sum(0),
+                           (m[s, None] * np.cross(r, v[s])).sum(0))  # fmt: skip
+        d = x[s][:, None] - x[s][None]  # rigid: no pair of vertices approaches or separates
+        dv = out[s][:, None] - out[s][None]
+        assert np.abs((d * dv).sum(-1)).max() < 1e-12
+    assert np.all(out[zone == 2] == 0.0)
