@@ -555,7 +555,8 @@ def sew(
         soft = max(SEW_STIFFNESS_FACTOR, (scene.dt_s / SEW_MAX_DT_S) ** 2)
         sew_steps = max(1, math.ceil(scene.steps_per_frame * math.sqrt(soft) - 1e-9))
     model.set_seam_stiffness(k_final * ramp[0])
-    model.scale_cloth_stiffness(soft)
+    if soft < 1.0:
+        model.scale_cloth_stiffness(soft)
     gap = math.inf
     done = 0
     try:
@@ -572,12 +573,14 @@ def sew(
                 break
         for k, f in enumerate(ramp[1:], 1):  # stiffen seams and cloth, then gravity acts
             model.set_seam_stiffness(k_final * f)
-            model.scale_cloth_stiffness(soft ** (1 - k / SEW_RAMP_FRAMES))
+            if soft < 1.0:
+                model.scale_cloth_stiffness(soft ** (1 - k / SEW_RAMP_FRAMES))
             solver.advance(state, control, scene.dt_s, scene.steps_per_frame)
             done += 1
     finally:
         model.set_seam_stiffness(k_final)
-        model.scale_cloth_stiffness(1.0)
+        if soft < 1.0:
+            model.scale_cloth_stiffness(1.0)
         control.gravity[None] = gravity
         solver.self_collider = saved
     out.update(sew_sim_time_s=done * frame_s, sew_wall_time_s=time.perf_counter() - t0,
