@@ -181,3 +181,24 @@ def test_wrapped_panels_start_less_stretched_and_no_more_crossed(monkeypatch):
     assert r[:, 0].max() > 2.0 and strained(r) > 0.15
     assert s[:, 0].max() < r[:, 0].max() - 0.3 and strained(s) < 0.12
     assert place._crossings(relaxed, meshes) <= place._crossings(raw, meshes)
+
+
+def test_sleeved_top_starts_without_crossings_at_a_fine_mesh(monkeypatch):
+    """At 1 cm the push-out folds the T-shirt's sleeve caps through themselves in the armpit
+    (74 crossing pairs before :func:`untangle`); placed, the garment starts with none,
+    still at its clearance from the body."""
+    import sandbox.pattern.place as place
+    from sandbox.scene.drape import resolve_pattern
+
+    m = build_mannequin(size=12)
+    pb = PlacementBody(m)
+    pattern = resolve_pattern("t-shirt", m)
+    meshes = mesh_pattern(pattern, 0.01)
+    placed = place_pattern(pattern, meshes, pb)
+    assert place._crossings(placed, meshes) == 0
+    probe = body_inside_check(m.vertices, m.triangles)
+    for name, x in placed.items():
+        need = _clearance_m(pattern.panels[name]) - TOL_M
+        assert probe.signed_distance(x).min() >= need, name
+    monkeypatch.setattr(place, "UNTANGLE_ROUNDS", 0)
+    assert place._crossings(place_pattern(pattern, meshes, pb), meshes) > 20

@@ -76,6 +76,12 @@ so a panel keeps its place (its anchor on the landmark) while its strains relax.
 OVERLAP_MARGIN_M = 0.015
 """Limb panels (sleeve caps) above the underarm start at least this far outside the torso
 panels, measured from the torso axis, so that they do not cut through the bodice."""
+UNTANGLE_ROUNDS = 20
+"""At most this many smoothing rounds of :func:`untangle` ..."""
+UNTANGLE_RINGS = 2
+"""... each over the vertices of the crossing triangles and this many rings around them ..."""
+UNTANGLE_SMOOTHING = 10
+"""... smoothed this many times (each step half-way to the neighbours' mean)."""
 BODIES = ("torso", "arm_left", "arm_right", "leg_left", "leg_right")
 _SIDE_DIRS = {"front": (0.0, 0.0, 1.0), "back": (0.0, 0.0, -1.0), "left": (1.0, 0.0, 0.0),
               "right": (-1.0, 0.0, 0.0)}  # fmt: skip
@@ -445,7 +451,65 @@ def place_pattern(pattern, meshes: dict, mannequin) -> dict[str, np.ndarray]:
         trial, c = assemble(chosen | {name})
         if c <= crossings:
             chosen, best, crossings = chosen | {name}, trial, c
+    if crossings:
+        clearance = {n: float(pattern.panels[n].placement.get(
+            "clearance", DEFAULT_CLEARANCE_M / pattern.panels[n].units_to_m))
+            * pattern.panels[n].units_to_m for n in best}  # fmt: skip
+        best = untangle(best, meshes, body, clearance)
     return best
+
+
+def untangle(placed: dict, meshes: dict, body, clearance_m: dict,
+             rounds: int | None = None) -> dict:  # fmt: skip
+    """Placed panels with their start crossings smoothed away (the fewest crossings found).
+
+    Pushing a fine mesh out of a crease (the armpit, where a sleeve cap meets the bodice)
+    moves neighbouring vertices to different surfaces, and the panel folds through itself:
+    a 1 cm T-shirt started with 74 crossing triangle pairs, and contact handling keeps a
+    start crossing for good. Each round takes the vertices of the crossing triangles and
+    :data:`UNTANGLE_RINGS` rings of neighbours, moves them :data:`UNTANGLE_SMOOTHING` steps
+    half-way to the mean of their neighbours (Laplacian smoothing, which unfolds), and
+    pushes them out to their panel's clearance again.
+
+    Args:
+        placed: panel name -> (n, 3) positions [m]. meshes: panel name -> mesh (its
+            ``triangles``). body: :class:`PlacementBody`. clearance_m: panel name -> [m].
+        rounds: at most this many rounds (default :data:`UNTANGLE_ROUNDS`).
+    """
+    import scipy.sparse as sp
+
+    names = list(placed)
+    sizes = [len(placed[n]) for n in names]
+    offsets = np.cumsum([0] + sizes)
+    x = np.vstack([placed[n] for n in names]).astype(float)
+    tri = np.vstack([np.asarray(meshes[n].triangles) + offsets[k] for k, n in enumerate(names)])
+    n = len(x)
+    e = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    adj = sp.coo_matrix((np.ones(2 * len(e)), (np.r_[e[:, 0], e[:, 1]], np.r_[e[:, 1], e[:, 0]])),
+                        shape=(n, n)).tocsr()  # fmt: skip
+    adj.data[:] = 1.0  # duplicate edges summed: count each neighbour once
+    deg = np.maximum(np.asarray(adj.sum(axis=1)).ravel(), 1.0)[:, None]
+    from sandbox.collision.metrics import intersecting_pairs
+
+    pairs = intersecting_pairs(x, tri)
+    best, fewest = x.copy(), len(pairs)
+    for _ in range(UNTANGLE_ROUNDS if rounds is None else rounds):
+        if len(pairs) == 0:
+            break
+        mask = np.zeros(n, bool)
+        mask[tri[np.asarray(pairs).ravel()].ravel()] = True
+        for _ in range(UNTANGLE_RINGS):
+            mask |= adj @ mask.astype(float) > 0
+        for _ in range(UNTANGLE_SMOOTHING):
+            x[mask] = 0.5 * x[mask] + 0.5 * (adj @ x)[mask] / deg[mask]
+        for k, name in enumerate(names):
+            sl = slice(offsets[k], offsets[k + 1])
+            if mask[sl].any():
+                x[sl], _ = body.push_out(x[sl], clearance_m[name])
+        pairs = intersecting_pairs(x, tri)
+        if len(pairs) < fewest:
+            best, fewest = x.copy(), len(pairs)
+    return {name: best[offsets[k] : offsets[k + 1]] for k, name in enumerate(names)}
 
 
 def _crossings(placed: dict, meshes: dict) -> int:
