@@ -81,7 +81,11 @@ UNTANGLE_ROUNDS = 20
 UNTANGLE_RINGS = 2
 """... each over the vertices of the crossing triangles and this many rings around them ..."""
 UNTANGLE_SMOOTHING = 10
-"""... smoothed this many times (each step half-way to the neighbours' mean)."""
+"""... smoothed this many times (each step half-way to the neighbours' mean) ..."""
+UNTANGLE_RESTORE = 3
+"""... then given back their edge lengths by this many passes of :func:`relax_panel`'s step
+(smoothing alone shrinks triangles: the T-shirt's sleeve caps kept some at 1 % of their
+width)."""
 BODIES = ("torso", "arm_left", "arm_right", "leg_left", "leg_right")
 _SIDE_DIRS = {"front": (0.0, 0.0, 1.0), "back": (0.0, 0.0, -1.0), "left": (1.0, 0.0, 0.0),
               "right": (-1.0, 0.0, 0.0)}  # fmt: skip
@@ -443,20 +447,30 @@ def place_pattern(pattern, meshes: dict, mannequin) -> dict[str, np.ndarray]:
                              by_part["torso"], limbs, pattern)  # fmt: skip
         return placed, _crossings(placed, meshes)
 
-    # a relaxed panel can slide into its neighbour (a sleeve into the bodice): keep each
-    # panel's relaxation only if the garment does not start with more crossings
+    clearance = {n: float(pattern.panels[n].placement.get(
+        "clearance", DEFAULT_CLEARANCE_M / pattern.panels[n].units_to_m))
+        * pattern.panels[n].units_to_m for n in out}  # fmt: skip
+
+    def untangled(placed: dict, crossings: int) -> tuple[dict, int]:
+        if not crossings:
+            return placed, 0
+        placed = untangle(placed, meshes, body, clearance)
+        return placed, _crossings(placed, meshes)
+
+    # every panel relaxed, then the crossings that made smoothed away ...
+    best, crossings = untangled(*assemble(set(relaxed)))
+    if not crossings:
+        return best
+    # ... else, as a relaxed panel can slide into its neighbour (a sleeve into the bodice),
+    # each panel's relaxation kept only if the garment does not start with more crossings
     chosen: set = set()
-    best, crossings = assemble(chosen)
+    greedy, c_greedy = assemble(chosen)
     for name in relaxed:
         trial, c = assemble(chosen | {name})
-        if c <= crossings:
-            chosen, best, crossings = chosen | {name}, trial, c
-    if crossings:
-        clearance = {n: float(pattern.panels[n].placement.get(
-            "clearance", DEFAULT_CLEARANCE_M / pattern.panels[n].units_to_m))
-            * pattern.panels[n].units_to_m for n in best}  # fmt: skip
-        best = untangle(best, meshes, body, clearance)
-    return best
+        if c <= c_greedy:
+            chosen, greedy, c_greedy = chosen | {name}, trial, c
+    greedy, c_greedy = untangled(greedy, c_greedy)
+    return greedy if c_greedy < crossings else best
 
 
 def untangle(placed: dict, meshes: dict, body, clearance_m: dict,
@@ -489,6 +503,8 @@ def untangle(placed: dict, meshes: dict, body, clearance_m: dict,
                         shape=(n, n)).tocsr()  # fmt: skip
     adj.data[:] = 1.0  # duplicate edges summed: count each neighbour once
     deg = np.maximum(np.asarray(adj.sum(axis=1)).ravel(), 1.0)[:, None]
+    uv = np.vstack([np.asarray(meshes[name].points, float) for name in names])
+    i, j, rest, count = _edge_lengths_setup(tri, uv, n)
     from sandbox.collision.metrics import intersecting_pairs
 
     pairs = intersecting_pairs(x, tri)
@@ -502,6 +518,8 @@ def untangle(placed: dict, meshes: dict, body, clearance_m: dict,
             mask |= adj @ mask.astype(float) > 0
         for _ in range(UNTANGLE_SMOOTHING):
             x[mask] = 0.5 * x[mask] + 0.5 * (adj @ x)[mask] / deg[mask]
+        for _ in range(UNTANGLE_RESTORE):  # give the smoothed triangles back their shapes
+            x[mask] += _edge_length_pass(x, i, j, rest, count)[mask]
         for k, name in enumerate(names):
             sl = slice(offsets[k], offsets[k + 1])
             if mask[sl].any():
@@ -537,24 +555,34 @@ def relax_panel(x: np.ndarray, triangles: np.ndarray, rest_xy: np.ndarray,
     """
     x0 = np.asarray(x, float)
     x = x0.copy()
+    i, j, rest, count = _edge_lengths_setup(triangles, rest_xy, len(x))
+    for _ in range(iterations):
+        x += _edge_length_pass(x, i, j, rest, count)
+        x += RELAX_HOLD * (x0 - x)
+    return x
+
+
+def _edge_lengths_setup(triangles: np.ndarray, rest_xy: np.ndarray, n: int):
+    """Unique edges (i, j) of a mesh, their pattern lengths and each vertex's edge count."""
     tri = np.asarray(triangles, np.int64)
     e = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
     e = np.unique(e, axis=0)
     i, j = e[:, 0], e[:, 1]
     rest = np.linalg.norm(rest_xy[j] - rest_xy[i], axis=1)
-    n = len(x)
     count = np.bincount(np.concatenate([i, j]), minlength=n).astype(float)[:, None]
-    count = np.maximum(count, 1.0)
-    for _ in range(iterations):
-        d = x[j] - x[i]
-        length = np.maximum(np.linalg.norm(d, axis=1), 1e-12)
-        c = (0.5 * (length - rest) / length)[:, None] * d  # move i by +c, j by -c
-        dx = np.zeros_like(x)
-        for k in range(3):
-            dx[:, k] = np.bincount(i, c[:, k], n) - np.bincount(j, c[:, k], n)
-        x += dx / count
-        x += RELAX_HOLD * (x0 - x)
-    return x
+    return i, j, rest, np.maximum(count, 1.0)
+
+
+def _edge_length_pass(x, i, j, rest, count) -> np.ndarray:
+    """One Jacobi pass: the move (n, 3) [m] that takes both ends of every edge half-way to
+    its rest length, averaged per vertex."""
+    d = x[j] - x[i]
+    length = np.maximum(np.linalg.norm(d, axis=1), 1e-12)
+    c = (0.5 * (length - rest) / length)[:, None] * d  # move i by +c, j by -c
+    dx = np.zeros_like(x)
+    for k in range(3):
+        dx[:, k] = np.bincount(i, c[:, k], len(x)) - np.bincount(j, c[:, k], len(x))
+    return dx / count
 
 
 def _lift_over_torso(body, frame, out, torso_panels, limb_panels, pattern) -> None:
