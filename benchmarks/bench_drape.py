@@ -22,7 +22,7 @@ KEYS = ("vertex_count", "fabric", "dt_s", "steps", "sew_sim_time_s", "sew_wall_t
         "wall_time_s", "total_wall_time_s", "compile_time_s", "build_time_s",
         "converged", "stop_reason", "seam_gap_max_m", "vertices_inside_body",
         "intersecting_triangle_pairs", "ease_bust_cm", "ease_waist_cm", "ease_hip_cm",
-        "meets_acceptance")  # fmt: skip
+        "top_below_anchor_m", "hem_rise_m", "meets_acceptance")  # fmt: skip
 
 
 def main(argv=None) -> int:

@@ -43,6 +43,7 @@ def test_library_garment_meets_the_acceptance_on_a_coarse_mesh(name, mannequin, 
     assert m["vertices_inside_body"] == 0 and m["penetration_max_m"] <= 1e-3
     assert m["intersecting_triangle_pairs"] == 0
     assert m["hangs_from"] == hangs_from and not m["slid_off"], m["top_below_anchor_m"]
+    assert not m["rolled_up"], m["hem_rise_m"]
     assert m["meets_acceptance"]
 
 
@@ -60,13 +61,20 @@ def test_a_top_hangs_from_the_shoulders_a_skirt_from_the_waist_and_a_slide_is_fl
     assert m["hangs_from"] == "waist_front" and m["slid_off"]
     assert m["top_below_anchor_m"] == pytest.approx(0.08)
     assert hang_metrics(skirt, skirt + np.nan, BODY)["slid_off"]  # NaN never passes
+    assert m["hem_rise_m"] == pytest.approx(-0.09) and not m["rolled_up"]
+    rolled = top.copy()
+    rolled[1, 1] += 0.07  # the 1 cm camisole's hem, folded up while sewn
+    m = hang_metrics(top, rolled, BODY)
+    assert m["hem_rise_m"] == pytest.approx(0.07) and m["rolled_up"] and not m["slid_off"]
+    assert hang_metrics(skirt, skirt + np.nan, BODY)["rolled_up"]
 
 
 def test_the_gallery_table_counts_the_garments_that_meet_the_acceptance(tmp_path):
     good = {"vertex_count": 900, "wall_time_s": 20.0, "sim_time_s": 1.0, "converged": True,
             "seam_gap_max_m": 1.5e-3, "penetration_max_m": 0.0, "vertices_inside_body": 0,
             "intersecting_triangle_pairs": 0, "slid_off": False, "top_below_anchor_m": -0.01,
-            "nan_positions": 0, "fabric": "jersey"}  # fmt: skip
+            "hem_rise_m": -0.02, "rolled_up": False, "nan_positions": 0,
+            "fabric": "jersey"}  # fmt: skip
     good["meets_acceptance"] = meets_acceptance(good)
     gap = {**good, "seam_gap_max_m": 2.5e-3, "wall_time_s": 40.0}
     gap["meets_acceptance"] = meets_acceptance(gap)
@@ -75,10 +83,11 @@ def test_the_gallery_table_counts_the_garments_that_meet_the_acceptance(tmp_path
     assert good["meets_acceptance"] and not gap["meets_acceptance"]
     assert not slid["meets_acceptance"]
     assert not meets_acceptance({**good, "converged": False})
+    assert not meets_acceptance({**good, "rolled_up": True})
     assert not meets_acceptance({**good, "intersecting_triangle_pairs": 1})
     assert meets_acceptance({**good, "penetration_max_m": 0.9e-3})
     assert not meets_acceptance({**good, "penetration_max_m": 1.1e-3})
     rows = [_row("a", good), _row("b", gap), _row("c", slid)]
     text = write_table(tmp_path / "gallery.md", rows).read_text()
     assert "1 of 3 meet the acceptance; median wall time 30 s." in text
-    assert "| c | jersey | 900 | 30 | yes | 1.50 | 0 | 0 | +8.0 | no |" in text
+    assert "| c | jersey | 900 | 30 | yes | 1.50 | 0 | 0 | +8.0 | -2.0 | no |" in text

@@ -85,7 +85,8 @@ UNTANGLE_SMOOTHING = 10
 UNTANGLE_RESTORE = 3
 """... then given back their edge lengths by this many passes of :func:`relax_panel`'s step
 (smoothing alone shrinks triangles: the T-shirt's sleeve caps kept some at 1 % of their
-width)."""
+width), in the first half of the rounds; where that folds the panel again, the second half
+goes on from the fewest crossings without it."""
 BODIES = ("torso", "arm_left", "arm_right", "leg_left", "leg_right")
 _SIDE_DIRS = {"front": (0.0, 0.0, 1.0), "back": (0.0, 0.0, -1.0), "left": (1.0, 0.0, 0.0),
               "right": (-1.0, 0.0, 0.0)}  # fmt: skip
@@ -509,16 +510,19 @@ def untangle(placed: dict, meshes: dict, body, clearance_m: dict,
 
     pairs = intersecting_pairs(x, tri)
     best, fewest = x.copy(), len(pairs)
-    for _ in range(UNTANGLE_ROUNDS if rounds is None else rounds):
+    rounds = UNTANGLE_ROUNDS if rounds is None else rounds
+    for k in range(rounds):
         if len(pairs) == 0:
             break
+        if k == rounds // 2 and fewest:  # the restoring refolds here: go on from the best
+            x, pairs = best.copy(), intersecting_pairs(best, tri)  # without it
         mask = np.zeros(n, bool)
         mask[tri[np.asarray(pairs).ravel()].ravel()] = True
         for _ in range(UNTANGLE_RINGS):
             mask |= adj @ mask.astype(float) > 0
         for _ in range(UNTANGLE_SMOOTHING):
             x[mask] = 0.5 * x[mask] + 0.5 * (adj @ x)[mask] / deg[mask]
-        for _ in range(UNTANGLE_RESTORE):  # give the smoothed triangles back their shapes
+        for _ in range(UNTANGLE_RESTORE if k < rounds // 2 else 0):  # triangle shapes back
             x[mask] += _edge_length_pass(x, i, j, rest, count)[mask]
         for k, name in enumerate(names):
             sl = slice(offsets[k], offsets[k + 1])

@@ -635,29 +635,40 @@ ACCEPT_SEAM_GAP_M = 2e-3
 ACCEPT_PENETRATION_M = 1e-3
 
 
+ROLL_TOLERANCE_M = 0.03
+"""A garment has rolled up when its lowest point ends more than this [m] above where it was
+placed (:func:`hang_metrics`): a hem does not rise under gravity unless it folds up."""
+
+
 def hang_metrics(x_start: np.ndarray, x_end: np.ndarray, mannequin) -> dict:
-    """Which landmark the garment hangs from and whether it slid off (issue 5's acceptance).
+    """Which landmark the garment hangs from, whether it slid off (issue 5's acceptance) and
+    whether its hem rolled up.
 
     A garment whose placed top (``x_start`` (n, 3) [m], highest y) is above half-way between
     the waist and the shoulder points hangs from the shoulders (``shoulder_point_left``),
     any other from the waist (``waist_front``). Returns ``hangs_from`` (the landmark),
     ``top_below_anchor_m`` (the landmark's height minus the final top's [m]; negative: the
-    top is above it) and ``slid_off`` (that distance is more than
-    :data:`SLIDE_TOLERANCE_M`).
+    top is above it), ``slid_off`` (that distance is more than
+    :data:`SLIDE_TOLERANCE_M`), ``hem_rise_m`` (the final lowest point's height minus the
+    placed one's [m]) and ``rolled_up`` (that rise is more than :data:`ROLL_TOLERANCE_M`:
+    a 1 cm camisole whose panels started strained folded its lower 7 cm up into a roll
+    while it was sewn, and the other metrics did not see it).
     """
     lm = mannequin.landmarks
     shoulder, waist = float(lm["shoulder_point_left"][1]), float(lm["waist_front"][1])
     start_top = float(np.max(np.asarray(x_start)[:, 1]))
     name = "shoulder_point_left" if start_top > 0.5 * (shoulder + waist) else "waist_front"
     below = float(lm[name][1]) - float(np.max(np.asarray(x_end)[:, 1]))  # NaN: slid_off
+    rise = float(np.min(np.asarray(x_end)[:, 1])) - float(np.min(np.asarray(x_start)[:, 1]))
     return {"hangs_from": name, "top_below_anchor_m": below,
-            "slid_off": bool(not below <= SLIDE_TOLERANCE_M)}  # fmt: skip
+            "slid_off": bool(not below <= SLIDE_TOLERANCE_M),
+            "hem_rise_m": rise, "rolled_up": bool(not rise <= ROLL_TOLERANCE_M)}  # fmt: skip
 
 
 def meets_acceptance(m: dict) -> bool:
     """Issue 5's acceptance for one drape's metrics: converged by the stop rule, largest seam
     gap <= 2 mm, no vertex inside the body deeper than 1 mm, no intersecting cloth triangle
-    pairs, not slid off (:func:`hang_metrics`), no NaN."""
+    pairs, neither slid off nor rolled up (:func:`hang_metrics`), no NaN."""
     gap = m.get("seam_gap_max_m")
     depth = m.get("penetration_max_m")
     return bool(
@@ -667,6 +678,7 @@ def meets_acceptance(m: dict) -> bool:
         and depth <= ACCEPT_PENETRATION_M
         and m.get("intersecting_triangle_pairs") == 0
         and not m.get("slid_off", False)
+        and not m.get("rolled_up", False)
         and m.get("nan_positions", 0) == 0
     )
 
