@@ -4,8 +4,9 @@ Default garments: the library's pencil skirt and T-shirt (or the test skirt if t
 is missing). Each drape runs in a fresh output directory under ``out/bench_drape`` and
 prints one line of JSON: vertices, steps, dt, sewing and draping time (simulated, wall),
 the sewing step and cloth softening, compile time, convergence, seam gap, contact counts,
-ease, acceptance. ``--sew-max-dt-ms 0`` sews without softening a stiff cloth (the code
-before 2 Dec 2026), for comparison with the default (``SEW_MAX_DT_S``).
+ease, hem rise, folded area, acceptance. ``--sew-max-dt-ms 0`` sews without softening a stiff cloth
+(the code before 2 Dec 2026), for comparison with the default (``SEW_MAX_DT_S``);
+``--sew-gravity 0`` sews tops without gravity (before the tenth session, 2 Dec 2026).
 """
 
 from __future__ import annotations
@@ -18,11 +19,13 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 KEYS = ("vertex_count", "fabric", "dt_s", "steps", "sew_sim_time_s", "sew_wall_time_s",
-        "sew_frames", "sew_gap_m", "sew_dt_s", "sew_cloth_stiffness_factor", "sim_time_s",
+        "sew_frames", "sew_gap_m", "sew_dt_s", "sew_cloth_stiffness_factor",
+        "sew_gravity_fraction", "sim_time_s",
         "wall_time_s", "total_wall_time_s", "compile_time_s", "build_time_s",
         "converged", "stop_reason", "seam_gap_max_m", "vertices_inside_body",
         "intersecting_triangle_pairs", "ease_bust_cm", "ease_waist_cm", "ease_hip_cm",
-        "top_below_anchor_m", "hem_rise_m", "meets_acceptance")  # fmt: skip
+        "top_below_anchor_m", "hem_rise_m", "folded_area_pct", "rolled_up",
+        "meets_acceptance")  # fmt: skip
 
 
 def main(argv=None) -> int:
@@ -39,6 +42,13 @@ def main(argv=None) -> int:
         default=None,
         help="sewing step cap [ms] (sandbox.scene.drape.SEW_MAX_DT_S); 0: no softening",
     )
+    p.add_argument(
+        "--sew-gravity",
+        type=float,
+        default=None,
+        help="gravity fraction while a top or dress is sewn (sandbox.scene.drape."
+        "SEW_GRAVITY_TOPS); 0: none, as before 2 Dec 2026",
+    )
     args = p.parse_args(argv)
 
     from sandbox import runtime
@@ -47,6 +57,8 @@ def main(argv=None) -> int:
 
     if args.sew_max_dt_ms is not None:
         drape_module.SEW_MAX_DT_S = args.sew_max_dt_ms / 1000.0
+    if args.sew_gravity is not None:
+        drape_module.SEW_GRAVITY_TOPS = args.sew_gravity
 
     runtime.init("cpu", float64=args.float64)
     garments = args.garments or (

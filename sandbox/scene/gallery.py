@@ -116,6 +116,7 @@ def _row(name: str, m: dict) -> dict:
         "top_below_anchor_m": m.get("top_below_anchor_m"),
         "slid_off": m.get("slid_off"),
         "hem_rise_m": m.get("hem_rise_m"),
+        "folded_area_pct": m.get("folded_area_pct"),
         "rolled_up": m.get("rolled_up"),
         "meets_acceptance": m.get("meets_acceptance"),
     }
@@ -180,7 +181,7 @@ def write_table(path, rows: list[dict], header: str = "") -> Path:
     lines += ["![gallery](gallery.png)", ""]
     lines += [
         "| garment | fabric | vertices | wall time (s) | converged | seam gap max (mm) | "
-        "inside body | intersecting pairs | top below anchor (cm) | hem rise (cm) | "
+        "inside body | intersecting pairs | top below anchor (cm) | folded (% area) | "
         "meets acceptance | "
         "ease bust (cm) | ease waist (cm) | ease hip (cm) |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
@@ -191,13 +192,13 @@ def write_table(path, rows: list[dict], header: str = "") -> Path:
             lines.append(f"| {r['garment']} | failed: {r['error'][:120]} |" + "  |" * 12)
             continue
         passed += bool(r.get("meets_acceptance"))
-        below, rise = r.get("top_below_anchor_m"), r.get("hem_rise_m")
+        below, folded = r.get("top_below_anchor_m"), r.get("folded_area_pct")
         lines.append(
             f"| {r['garment']} | {r['fabric']} | {r['vertices']} | {r['wall_time_s']:.0f} | "
             f"{'yes' if r['converged'] else 'no'} | {_mm(r['seam_gap_max_m'])} | "
             f"{r['vertices_inside_body']} | {r['intersecting_triangle_pairs']} | "
             f"{'-' if below is None else f'{below * 100:+.1f}'} | "
-            f"{'-' if rise is None else f'{rise * 100:+.1f}'} | "
+            f"{'-' if folded is None else f'{folded:.1f}'} | "
             f"{'yes' if r.get('meets_acceptance') else 'no'} | "
             f"{_cm(r['ease_bust_cm'])} | {_cm(r['ease_waist_cm'])} | {_cm(r['ease_hip_cm'])} |"
         )
@@ -211,8 +212,9 @@ def write_table(path, rows: list[dict], header: str = "") -> Path:
         "closed mannequin. Intersecting pairs: garment triangle pairs that cross (exact test). "
         "Top below anchor: how far the garment's highest point ends below the landmark it "
         "hangs from (shoulder point or waist; negative: above it); more than 3 cm counts as "
-        "slid off. Hem rise: how far the garment's lowest point ends above where it was placed; "
-        "more than 3 cm counts as rolled up. Meets acceptance (issue 5): converged, seam gap "
+        "slid off. Folded: the share of the garment's area that ended turned over (normal "
+        "turned more than 90 degrees from the placed one); more than 2 % counts as rolled "
+        "up. Meets acceptance (issue 5): converged, seam gap "
         "<= 2 mm, nothing inside the body deeper than 1 mm, no intersecting pairs, neither "
         "slid off nor rolled up. Ease: garment girth "
         "minus body girth at the bust, waist and hip heights (convex hull of the section, as "
