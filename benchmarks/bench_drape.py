@@ -6,7 +6,7 @@ prints one line of JSON: vertices, steps, dt, sewing and draping time (simulated
 the sewing step and cloth softening, compile time, convergence, seam gap, contact counts,
 ease, hem rise, folded area, acceptance. ``--sew-max-dt-ms 0`` sews without softening a stiff cloth
 (the code before 2 Dec 2026), for comparison with the default (``SEW_MAX_DT_S``);
-``--sew-gravity 0`` sews tops without gravity (before the tenth session, 2 Dec 2026).
+``--sew-gravity 1`` sews tops and dresses under full gravity.
 """
 
 from __future__ import annotations
@@ -47,7 +47,7 @@ def main(argv=None) -> int:
         type=float,
         default=None,
         help="gravity fraction while a top or dress is sewn (sandbox.scene.drape."
-        "SEW_GRAVITY_TOPS); 0: none, as before 2 Dec 2026",
+        "SEW_GRAVITY_TOPS, default 0: none)",
     )
     args = p.parse_args(argv)
 

@@ -45,8 +45,7 @@ def test_library_garment_meets_the_acceptance_on_a_coarse_mesh(name, mannequin, 
     assert m["intersecting_triangle_pairs"] == 0
     assert m["hangs_from"] == hangs_from and not m["slid_off"], m["top_below_anchor_m"]
     assert not m["rolled_up"], m["folded_area_pct"]
-    # tops and dresses are sewn under gravity (SEW_GRAVITY_TOPS), skirts without
-    assert m["sew_gravity_fraction"] == (1.0 if hangs_from == "shoulder_point_left" else 0.0)
+    assert m["sew_gravity_fraction"] == 0.0  # SEW_GRAVITY_TOPS: sewn without gravity
     assert m["meets_acceptance"]
 
 
