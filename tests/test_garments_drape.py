@@ -86,6 +86,17 @@ def test_a_hem_folded_up_is_flagged_and_a_sheet_that_only_sags_is_not():
     m = fold_metrics(x0, folded, tri)
     assert m["folded_area_pct"] == pytest.approx(7.5, abs=0.01) and m["rolled_up"]
     assert fold_metrics(x0, x0 + np.nan, tri)["rolled_up"]  # NaN never passes
+    # against a body (z = 0, its outward normal +z in front and -z behind): the fold still
+    # counts, and the panel carried round to the back (as a strap over the shoulder) does
+    # not, though every normal turned half a turn
+    body = SimpleNamespace(surface_normals=lambda c: np.column_stack(
+        [np.zeros(len(c)), np.zeros(len(c)), np.where(c[:, 2] >= 0, 1.0, -1.0)]))  # fmt: skip
+    front = x0 + [0.0, 0.0, 0.01]
+    back = front * [-1.0, 1.0, -1.0]
+    assert fold_metrics(front, back, tri)["folded_area_pct"] == pytest.approx(100.0)
+    assert fold_metrics(front, back, tri, body)["folded_area_pct"] == 0.0
+    m = fold_metrics(front, folded + [0.0, 0.0, 0.01], tri, body)
+    assert m["folded_area_pct"] == pytest.approx(7.5, abs=0.01) and m["rolled_up"]
 
 
 def test_the_gallery_table_counts_the_garments_that_meet_the_acceptance(tmp_path):

@@ -292,11 +292,8 @@ class PlacementBody:
         return _Curve(_hull_points(grown))
 
     # --- push-out -----------------------------------------------------------------------
-    def push_out(self, x: np.ndarray, clearance_m: float) -> tuple[np.ndarray, int]:
-        """Move points closer to the body than ``clearance_m`` out to that distance.
-
-        Returns the new points (n, 3) and how many were moved.
-        """
+    def _raycasting(self):
+        """The body's Open3D RaycastingScene (built once)."""
         import open3d as o3d
 
         if self._scene is None:
@@ -305,6 +302,24 @@ class PlacementBody:
                 o3d.core.Tensor(self.vertices.astype(np.float32)),
                 o3d.core.Tensor(self.triangles.astype(np.uint32)),
             )
+        return self._scene
+
+    def surface_normals(self, x: np.ndarray) -> np.ndarray:
+        """Outward unit normals (n, 3) of the body triangles closest to points ``x`` (n, 3) [m]."""
+        import open3d as o3d
+
+        x = np.asarray(x, np.float32).reshape(-1, 3)
+        cp = self._raycasting().compute_closest_points(o3d.core.Tensor(x))
+        return cp["primitive_normals"].numpy().astype(float)
+
+    def push_out(self, x: np.ndarray, clearance_m: float) -> tuple[np.ndarray, int]:
+        """Move points closer to the body than ``clearance_m`` out to that distance.
+
+        Returns the new points (n, 3) and how many were moved.
+        """
+        import open3d as o3d
+
+        self._raycasting()
         x = np.array(x, float)
         moved = np.zeros(len(x), bool)
         target = clearance_m * 1.02

@@ -646,7 +646,8 @@ def drape_metrics(scene, result, *, build_s: float = 0.0) -> dict:
     )
     m.update(ease_cm(result.positions, model.tri_indices_np, mannequin, scene.placement_body))
     m.update(hang_metrics(model.initial_positions_np, result.positions, mannequin))
-    m.update(fold_metrics(model.initial_positions_np, result.positions, model.tri_indices_np))
+    m.update(fold_metrics(model.initial_positions_np, result.positions, model.tri_indices_np,
+                          scene.placement_body))  # fmt: skip
     m["meets_acceptance"] = meets_acceptance(m)
     return m
 
@@ -696,16 +697,20 @@ def hang_metrics(x_start: np.ndarray, x_end: np.ndarray, mannequin) -> dict:
             "hem_rise_m": rise}  # fmt: skip
 
 
-def fold_metrics(x_start: np.ndarray, x_end: np.ndarray, triangles: np.ndarray) -> dict:
+def fold_metrics(x_start: np.ndarray, x_end: np.ndarray, triangles: np.ndarray,
+                 body=None) -> dict:  # fmt: skip
     """How much of a garment ended turned over: ``folded_area_pct``, the area [%] (at the
-    start) of the triangles whose normal turned more than 90 degrees from the placed one,
-    and ``rolled_up``, that share above :data:`FOLD_TOLERANCE_PCT` (or NaN positions).
+    start) of the triangles turned over, and ``rolled_up``, that share above
+    :data:`FOLD_TOLERANCE_PCT` (or NaN positions).
 
     A garment hanging from the body keeps its outside out; a hem folded up into a roll, or
     a back panel caught in a fold, turns a band of cloth over. (The 1 cm camisole whose
     panels started strained folded its lower 7 cm up into a roll while it was sewn, and the
-    other metrics did not see it; the 3 cm sleeveless blouse sewn without gravity: 3.9 %,
-    with gravity 0.1 %.)
+    other metrics did not see it.) With ``body`` (a :class:`~sandbox.pattern.place.
+    PlacementBody`) a triangle is turned over when the side of it that faced away from the
+    body at the start faces it at the end (its normal against the nearest body normal), so
+    a strap that bends over the shoulder as it should is not counted; without, when its
+    normal turned more than 90 degrees.
     """
     t = np.asarray(triangles, np.int64)
 
@@ -715,9 +720,17 @@ def fold_metrics(x_start: np.ndarray, x_end: np.ndarray, triangles: np.ndarray) 
 
     n0, n1 = normals(x_start), normals(x_end)
     area = np.linalg.norm(n0, axis=1)
-    turned = np.sum(n0 * n1, axis=1) < 0
-    pct = float(100.0 * area[turned].sum() / max(area.sum(), 1e-300))
     finite = bool(np.all(np.isfinite(x_end)))
+    if body is not None and finite:
+
+        def outward(x, n):  # fmt: skip
+            c = np.asarray(x, float)[t].mean(axis=1)
+            return np.sum(n * body.surface_normals(c), axis=1) > 0
+
+        turned = outward(x_start, n0) != outward(x_end, n1)
+    else:
+        turned = np.sum(n0 * n1, axis=1) < 0
+    pct = float(100.0 * area[turned].sum() / max(area.sum(), 1e-300))
     return {"folded_area_pct": pct if finite else float("nan"),
             "rolled_up": bool(not finite or pct > FOLD_TOLERANCE_PCT)}  # fmt: skip
 
