@@ -54,6 +54,13 @@ SEW_SELF_COLLISION = True
 on the wrong side of another can pass through it, but the garment keeps those crossings
 (gallery at 3 cm: 44 intersecting pairs on the T-shirt and 110 on the A-line dress without
 it, 5 and 0 with it, for about 3 x the wall time)."""
+SEW_CLOTH_MIN_FACTOR = 0.05
+"""The softest a stiff cloth is made while it sews (a factor on its membrane and bending
+stiffness; see :data:`SEW_MAX_DT_S`). Soft cloth compresses instead of moving as a whole:
+the halter top (cotton, 1.5 cm) sewn at 0.05 ends sewing with its front's lowest point
+15.3 cm higher than placed (the panels pulled up to the neckband, the lower part rolled),
+at 0.25 3.4 cm but its seams 4.2 mm open at the 1.5 s limit, unsoftened 3.3 cm, sewn in
+11 frames (ad-hoc script, 2 Dec 2026)."""
 SEW_GRAVITY_TOPS = 0.0
 """Fraction of gravity while a garment that hangs from the shoulders is sewn (0: none, like
 every garment). Measured at 3 cm (2 Dec 2026, ``benchmarks/bench_drape.py --sew-gravity``):
@@ -573,7 +580,7 @@ def sew(
     # as 1/sqrt(stiffness)), at most down to the seams' factor; a soft one sews as it is.
     soft, sew_steps = 1.0, scene.steps_per_frame
     if scene.spec.simulation.integrator == "symplectic_euler" and scene.dt_s < SEW_MAX_DT_S:
-        soft = max(SEW_STIFFNESS_FACTOR, (scene.dt_s / SEW_MAX_DT_S) ** 2)
+        soft = max(SEW_CLOTH_MIN_FACTOR, (scene.dt_s / SEW_MAX_DT_S) ** 2)
         sew_steps = max(1, math.ceil(scene.steps_per_frame * math.sqrt(soft) - 1e-9))
     model.set_seam_stiffness(k_final * ramp[0])
     if soft < 1.0:
