@@ -19,17 +19,6 @@ import time
 import numpy as np
 
 
-def start_stretches(meshes: dict, placed: dict) -> np.ndarray:
-    """(triangles, 2) principal stretches of every placed triangle against its pattern."""
-    out = []
-    for name, mesh in meshes.items():
-        t, uv, x = mesh.triangles, mesh.points, placed[name]
-        rest = np.stack([uv[t[:, 1]] - uv[t[:, 0]], uv[t[:, 2]] - uv[t[:, 0]]], 2)
-        world = np.stack([x[t[:, 1]] - x[t[:, 0]], x[t[:, 2]] - x[t[:, 0]]], 2)
-        out.append(np.linalg.svd(world @ np.linalg.inv(rest), compute_uv=False))
-    return np.vstack(out)
-
-
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("garments", nargs="*")
@@ -41,6 +30,7 @@ def main(argv=None) -> int:
     import sandbox.pattern.place as place
     from sandbox.collision.metrics import body_inside_check
     from sandbox.pattern.panel_mesh import mesh_pattern
+    from sandbox.pattern.place import start_stretches
     from sandbox.scene.drape import garment_names, make_mannequin, resolve_pattern
 
     if args.no_untangle:

@@ -9,7 +9,7 @@ from sandbox.collision.metrics import body_inside_check, count_intersections_bet
 from sandbox.errors import SandboxError
 from sandbox.mannequin import build_mannequin
 from sandbox.pattern.panel_mesh import mesh_pattern
-from sandbox.pattern.place import PlacementBody, place_panel, place_pattern
+from sandbox.pattern.place import PlacementBody, place_panel, place_pattern, start_stretches
 from sandbox.pattern.spec import load_pattern
 
 DATA = Path(__file__).parent / "data"
@@ -144,17 +144,6 @@ def test_bad_placement_input():
         place_panel(np.zeros((3, 3)), {"translation": [0, 0, 0]}, pb)
 
 
-def _start_stretch(meshes, placed) -> np.ndarray:
-    """Principal stretches (m, 2) of every placed triangle against its pattern shape."""
-    out = []
-    for name, mesh in meshes.items():
-        t, uv, x = mesh.triangles, mesh.points, placed[name]
-        rest = np.stack([uv[t[:, 1]] - uv[t[:, 0]], uv[t[:, 2]] - uv[t[:, 0]]], 2)
-        world = np.stack([x[t[:, 1]] - x[t[:, 0]], x[t[:, 2]] - x[t[:, 0]]], 2)
-        out.append(np.linalg.svd(world @ np.linalg.inv(rest), compute_uv=False))
-    return np.vstack(out)
-
-
 def test_wrapped_panels_start_less_stretched_and_no_more_crossed(monkeypatch):
     """The relaxation after the wrap. The T-shirt wrapped row by row round the arms and the
     torso starts 2.4 x stretched next to the armpit, with 17.5 % of its triangles off by
@@ -169,11 +158,11 @@ def test_wrapped_panels_start_less_stretched_and_no_more_crossed(monkeypatch):
     pattern = resolve_pattern("t-shirt", m)
     meshes = mesh_pattern(pattern, 0.03)
     relaxed = place_pattern(pattern, meshes, pb)
-    s = _start_stretch(meshes, relaxed)
+    s = start_stretches(meshes, relaxed)
     _check(pattern, (m, pb, body_inside_check(m.vertices, m.triangles)))
     monkeypatch.setattr(place, "RELAX_ROUNDS", 0)  # the wrap alone
     raw = place_pattern(pattern, meshes, pb)
-    r = _start_stretch(meshes, raw)
+    r = start_stretches(meshes, raw)
 
     def strained(x):
         return np.mean((x[:, 0] > 1.1) | (x[:, 1] < 0.9))

@@ -549,6 +549,18 @@ def untangle(placed: dict, meshes: dict, body, clearance_m: dict,
     return {name: best[offsets[k] : offsets[k + 1]] for k, name in enumerate(names)}
 
 
+def start_stretches(meshes: dict, placed: dict) -> np.ndarray:
+    """Principal stretches (triangles, 2) of every placed triangle against its pattern
+    shape (largest first); ``meshes`` and ``placed`` as :func:`place_pattern`'s."""
+    out = []
+    for name, mesh in meshes.items():
+        t, uv, x = mesh.triangles, mesh.points, placed[name]
+        rest = np.stack([uv[t[:, 1]] - uv[t[:, 0]], uv[t[:, 2]] - uv[t[:, 0]]], 2)
+        world = np.stack([x[t[:, 1]] - x[t[:, 0]], x[t[:, 2]] - x[t[:, 0]]], 2)
+        out.append(np.linalg.svd(world @ np.linalg.inv(rest), compute_uv=False))
+    return np.vstack(out)
+
+
 def _crossings(placed: dict, meshes: dict) -> int:
     """Intersecting triangle pairs of all panels together (exact test)."""
     from sandbox.collision.metrics import count_intersecting_pairs
