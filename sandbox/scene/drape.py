@@ -668,8 +668,8 @@ ACCEPT_PENETRATION_M = 1e-3
 
 FOLD_TOLERANCE_PCT = 2.0
 """A garment has folded over (a hem rolled up) when more than this per cent of its area ends
-turned over: triangles whose normal turned more than 90 degrees from the placed one
-(:func:`fold_metrics`)."""
+turned over: triangles whose side that faced away from the body at the start faces it at
+the end (:func:`fold_metrics`)."""
 
 
 def hangs_from(x_start: np.ndarray, mannequin) -> str:
