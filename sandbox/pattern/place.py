@@ -446,12 +446,10 @@ def place_pattern(pattern, meshes: dict, mannequin) -> dict[str, np.ndarray]:
     relaxed = {}
     for names in by_part.values():  # unstrain each wrapped panel, keep the clearance
         for name in names:
-            panel, x = pattern.panels[name], out[name]
-            u = panel.units_to_m
-            clearance = float(panel.placement.get("clearance", DEFAULT_CLEARANCE_M / u)) * u
+            x = out[name]
             for _ in range(RELAX_ROUNDS):
                 x, _ = body.push_out(relax_panel(x, meshes[name].triangles, meshes[name].points),
-                                     clearance)  # fmt: skip
+                                     _clearance_m(pattern.panels[name]))  # fmt: skip
             relaxed[name] = x
 
     def assemble(chosen: set) -> tuple[dict, int]:
@@ -463,9 +461,7 @@ def place_pattern(pattern, meshes: dict, mannequin) -> dict[str, np.ndarray]:
                              by_part["torso"], limbs, pattern)  # fmt: skip
         return placed, _crossings(placed, meshes)
 
-    clearance = {n: float(pattern.panels[n].placement.get(
-        "clearance", DEFAULT_CLEARANCE_M / pattern.panels[n].units_to_m))
-        * pattern.panels[n].units_to_m for n in out}  # fmt: skip
+    clearance = {n: _clearance_m(pattern.panels[n]) for n in out}
 
     def untangled(placed: dict, crossings: int) -> tuple[dict, int]:
         if not crossings:
@@ -514,13 +510,9 @@ def untangle(placed: dict, meshes: dict, body, clearance_m: dict,
     x = np.vstack([placed[n] for n in names]).astype(float)
     tri = np.vstack([np.asarray(meshes[n].triangles) + offsets[k] for k, n in enumerate(names)])
     n = len(x)
-    e = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
-    adj = sp.coo_matrix((np.ones(2 * len(e)), (np.r_[e[:, 0], e[:, 1]], np.r_[e[:, 1], e[:, 0]])),
-                        shape=(n, n)).tocsr()  # fmt: skip
-    adj.data[:] = 1.0  # duplicate edges summed: count each neighbour once
-    deg = np.maximum(np.asarray(adj.sum(axis=1)).ravel(), 1.0)[:, None]
     uv = np.vstack([np.asarray(meshes[name].points, float) for name in names])
-    i, j, rest, count = _edge_lengths_setup(tri, uv, n)
+    i, j, rest, count = _edge_lengths_setup(tri, uv, n)  # unique edges, count = degree
+    adj = sp.coo_matrix((np.ones(2 * len(i)), (np.r_[i, j], np.r_[j, i])), shape=(n, n)).tocsr()
     from sandbox.collision.metrics import intersecting_pairs
 
     pairs = intersecting_pairs(x, tri)
@@ -536,17 +528,23 @@ def untangle(placed: dict, meshes: dict, body, clearance_m: dict,
         for _ in range(UNTANGLE_RINGS):
             mask |= adj @ mask.astype(float) > 0
         for _ in range(UNTANGLE_SMOOTHING):
-            x[mask] = 0.5 * x[mask] + 0.5 * (adj @ x)[mask] / deg[mask]
+            x[mask] = 0.5 * x[mask] + 0.5 * (adj @ x)[mask] / count[mask]
         for _ in range(UNTANGLE_RESTORE if k < rounds // 2 else 0):  # triangle shapes back
             x[mask] += _edge_length_pass(x, i, j, rest, count)[mask]
-        for k, name in enumerate(names):
-            sl = slice(offsets[k], offsets[k + 1])
+        for p, name in enumerate(names):
+            sl = slice(offsets[p], offsets[p + 1])
             if mask[sl].any():
                 x[sl], _ = body.push_out(x[sl], clearance_m[name])
         pairs = intersecting_pairs(x, tri)
         if len(pairs) < fewest:
             best, fewest = x.copy(), len(pairs)
     return {name: best[offsets[k] : offsets[k + 1]] for k, name in enumerate(names)}
+
+
+def _clearance_m(panel) -> float:
+    """A wrapped panel's clearance from the body [m] (its placement's, else the default)."""
+    u = panel.units_to_m
+    return float(panel.placement.get("clearance", DEFAULT_CLEARANCE_M / u)) * u
 
 
 def start_stretches(meshes: dict, placed: dict) -> np.ndarray:
@@ -666,9 +664,7 @@ def _lift_over_torso(body, frame, out, torso_panels, limb_panels, pattern) -> No
         ramp = np.clip((h - lo) / 0.03, 0.0, 1.0)
         shift = lift[np.clip(rows, 0, len(lift) - 1)] * ramp * (h >= lo)
         x = x + shift[:, None] * d[None, :] * 1.2
-        pl = pattern.panels[name].placement
-        u = pattern.panels[name].units_to_m
-        x, _ = body.push_out(x, float(pl.get("clearance", DEFAULT_CLEARANCE_M / u)) * u)
+        x, _ = body.push_out(x, _clearance_m(pattern.panels[name]))
         out[name] = x
 
 
