@@ -20,7 +20,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 KEYS = ("vertex_count", "fabric", "dt_s", "steps", "sew_sim_time_s", "sew_wall_time_s",
         "sew_frames", "sew_gap_m", "sew_dt_s", "sew_cloth_stiffness_factor",
-        "sew_gravity_fraction", "sim_time_s",
+        "sew_gravity_fraction", "sew_stalled", "sim_time_s",
         "wall_time_s", "total_wall_time_s", "compile_time_s", "build_time_s",
         "converged", "stop_reason", "seam_gap_max_m", "vertices_inside_body",
         "intersecting_triangle_pairs", "ease_bust_cm", "ease_waist_cm", "ease_hip_cm",
@@ -49,6 +49,13 @@ def main(argv=None) -> int:
         help="gravity fraction while a top or dress is sewn (sandbox.scene.drape."
         "SEW_GRAVITY_TOPS, default 0: none)",
     )
+    p.add_argument(
+        "--sew-speed-limit",
+        type=float,
+        default=None,
+        help="largest particle speed while sewing [m/s] (sandbox.scene.drape."
+        "SEW_SPEED_LIMIT_M_S); 0: none",
+    )
     args = p.parse_args(argv)
 
     from sandbox import runtime
@@ -57,6 +64,8 @@ def main(argv=None) -> int:
 
     if args.sew_max_dt_ms is not None:
         drape_module.SEW_MAX_DT_S = args.sew_max_dt_ms / 1000.0
+    if args.sew_speed_limit is not None:
+        drape_module.SEW_SPEED_LIMIT_M_S = args.sew_speed_limit
     if args.sew_gravity is not None:
         drape_module.SEW_GRAVITY_TOPS = args.sew_gravity
 
@@ -77,6 +86,7 @@ def main(argv=None) -> int:
             "edge_cm": args.edge_cm,
             "size": args.size,
             "sew_max_dt_s": drape_module.SEW_MAX_DT_S,
+            "sew_speed_limit_m_s": drape_module.SEW_SPEED_LIMIT_M_S,
         }
         row.update({k: res.metrics.get(k) for k in KEYS})
         row["command_wall_s"] = time.perf_counter() - t0

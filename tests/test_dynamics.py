@@ -55,6 +55,21 @@ def test_undamped_oscillation_keeps_its_energy_bounded():
     assert abs(last - first) / e0 < 0.01  # no drift over 8000 steps
 
 
+def test_speed_limit_caps_every_particle_and_is_off_by_default():
+    """The sewing phase's speed limit: a falling sheet keeps at most the limit, no more."""
+    scene = free_sheet(velocity_m_s=[0.0, -3.0, 0.0])
+    assert scene.solver.speed_limit[None] == 0.0
+    scene.solver.advance(scene.state, scene.control, scene.dt_s, 10)
+    np.testing.assert_allclose(np.linalg.norm(scene.state.velocities(), axis=1), 3.0, rtol=1e-6)
+    scene.solver.speed_limit[None] = 0.5
+    x0 = scene.state.positions()
+    scene.solver.advance(scene.state, scene.control, scene.dt_s, 10)
+    speed = np.linalg.norm(scene.state.velocities(), axis=1)
+    np.testing.assert_allclose(speed, 0.5, rtol=1e-6)
+    moved = np.linalg.norm(scene.state.positions() - x0, axis=1)
+    np.testing.assert_allclose(moved, 0.5 * 10 * scene.dt_s, rtol=1e-6)
+
+
 def test_parallel_step_and_fused_advance_agree():
     a = build_scene(sheet_spec())
     b = build_scene(sheet_spec())

@@ -38,9 +38,12 @@ SEW_GAP_M = 2e-3
 SEW_TIME_LIMIT_S = 1.5
 SEW_STIFFNESS_FACTOR = 0.05
 """Seam springs pull at this fraction of their final stiffness while sewing (no gravity)."""
-SEW_MAX_DT_S = 1e-4
-"""While sewing, an explicit scene whose step is shorter than this [s] (a stiff fabric or a
-fine mesh) softens its cloth (membrane and bending) so that this step is stable (the stable
+SEW_MAX_DT_S = 0.0
+"""Off by default (0): set to 1e-4 to soften a stiff cloth while it sews, as the code did
+from 2 Dec 2026 until the speed limit (:data:`SEW_SPEED_LIMIT_M_S`) replaced it: softened
+cloth compresses under the seams' pull and the rolled hems it left failed three sleeveless
+tops at 1 cm (docs/drape.md). While sewing, an explicit scene whose step is shorter than
+this [s] (a stiff fabric or a fine mesh) softens its cloth (membrane and bending) so that this step is stable (the stable
 step goes as 1/sqrt(stiffness)), but by no more than :data:`SEW_STIFFNESS_FACTOR`; the seams
 close with that longer step. A placed panel starts a few per cent strained where it is
 wrapped around the body, and at full stiffness that strain energy shook a stiff fabric at a
@@ -70,6 +73,28 @@ ends folded up (3.9 % of its area turned over); with full gravity the T-shirt's 
 rises 1.0 cm and the blouse hangs straight (0.1 %), but the weight holds the seams open
 against their 5 % sewing stiffness: the tank top's were still 46 mm open at the 1.5 s
 limit (12 mm without) and ended 3.9 mm (1.4 mm), failing the seam-gap acceptance."""
+SEW_SPEED_LIMIT_M_S = 3.0
+"""While seams close, no particle keeps a speed above this [m/s] (the explicit solver's
+``speed_limit``; 0: none); off again for the ramp. A seam spring pulls its two ends
+together at the cloth's own wave speed: the sleeveless blouse (polyester, 1 cm) placed with
+7-11 cm side-seam gaps had them closed within one frame, and the shock flung its lower part
+28 cm up into a roll that it kept (17 % of its area turned over). At 3 m/s its lowest point
+rises 4.6 cm while it is sewn and every gap ends below 0.5 mm. At 1 m/s the seams' pull,
+capped before the body's contact response, could no longer drag an end pressed into the
+body past friction: the tank top's underarm corners (3 cm mesh) stayed 3.5 mm open
+(ad-hoc scripts and ``benchmarks/bench_drape.py --sew-speed-limit``, 2 Dec 2026)."""
+SEW_FRICTION = None
+"""Friction coefficient of the body (static and kinetic) and of the cloth on itself while
+sewing (``None``: the scene's own, the default). Frictionless sewing let a seam end pressed
+into the body slide round to its partner, but at 3 cm the raglan top then ended with 6
+vertices inside the body and the long-sleeve shirt with 2 (1 m/s speed limit)."""
+SEW_STALL_FRAMES = 6
+SEW_STALL_SHRINK = 0.95
+"""Sewing also ends when the largest seam gap has not shrunk below this fraction of what it
+was :data:`SEW_STALL_FRAMES` frames before (``sew_stalled`` in the metrics): the last open
+spring is then a corner held by the body, such as a side seam's top in the armpit crease
+(3 mm at 3 cm), which the time limit would not close but which cost the 1 cm sleeveless
+blouse 51 sewing frames, about 18 min on one core. The ramp's stiffer seams close it."""
 SEW_RAMP_FRAMES = 6
 """Frames over which the seams stiffen geometrically to their final stiffness."""
 DRAPE_MIN_TIME_S = 0.5
@@ -537,15 +562,17 @@ def sew(
 
     The seam springs pull at :data:`SEW_STIFFNESS_FACTOR` of their final stiffness (as stiff
     as the cloth: the seams then hold the garment's weight) until every spring is shorter
-    than ``gap_m`` or ``time_limit_s`` of simulated time has passed; a stiff cloth is
-    softened meanwhile so that it sews at a longer explicit step (:data:`SEW_MAX_DT_S`).
-    Then seams and cloth stiffen together over :data:`SEW_RAMP_FRAMES` frames at the
-    scene's own step. With ``self_collision=False`` the cloth does not collide
-    with itself while sewing (seam edges that start on the wrong side of another panel, like a
-    sleeve cap over the bodice, can then reach their partner). Returns ``{"sew_sim_time_s",
-    "sew_wall_time_s", "sew_frames", "sew_gap_m", "sew_dt_s", "sew_cloth_stiffness_factor"}``
-    (the last two: the sewing frames' step [s] and the cloth's stiffness factor in them)
-    and ``"sew_gravity_fraction"``.
+    than ``gap_m``, the largest gap stalls (:data:`SEW_STALL_FRAMES`) or ``time_limit_s`` of
+    simulated time has passed. Meanwhile no particle keeps a speed above
+    :data:`SEW_SPEED_LIMIT_M_S` and the body and the cloth are frictionless
+    (:data:`SEW_FRICTION`); a stiff cloth is softened only if :data:`SEW_MAX_DT_S` is set
+    (off by default). Then seams and cloth stiffen together over :data:`SEW_RAMP_FRAMES`
+    frames at the scene's own step, without the speed limit. With ``self_collision=False``
+    the cloth does not collide with itself while sewing (seam edges that start on the wrong
+    side of another panel, like a sleeve cap over the bodice, can then reach their partner).
+    Returns ``{"sew_sim_time_s", "sew_wall_time_s", "sew_frames", "sew_gap_m", "sew_dt_s",
+    "sew_cloth_stiffness_factor", "sew_gravity_fraction", "sew_stalled"}`` (``sew_dt_s``
+    and the factor: the sewing frames' step [s] and the cloth's stiffness factor in them).
 
     ``gravity_fraction`` scales gravity while sewing. Default: :data:`SEW_GRAVITY_TOPS` for
     a garment that hangs from the shoulders (:func:`hangs_from`), none for one that hangs
@@ -571,6 +598,18 @@ def sew(
         gravity_fraction = SEW_GRAVITY_TOPS if shoulders else 0.0
     control.gravity[None] = [float(gravity_fraction) * float(g) for g in gravity]
     saved = solver.self_collider
+    speed_limit = getattr(solver, "speed_limit", None)  # the explicit solver's
+    if speed_limit is not None:
+        speed_limit[None] = SEW_SPEED_LIMIT_M_S
+    mu = [(c.mu_s, c.mu_k) for c in model.colliders if hasattr(c, "mu_s")]
+    mu_saved = [(a[None], b[None]) for a, b in mu]
+    mu_self = getattr(solver.self_collider, "mu", None)
+    mu_self_saved = mu_self[None] if mu_self is not None else None
+    if SEW_FRICTION is not None:
+        for a, b in mu:
+            a[None] = b[None] = SEW_FRICTION
+        if mu_self is not None:
+            mu_self[None] = SEW_FRICTION
     if not self_collision:
         solver.self_collider = None  # the solver runs the fused step without its passes
     frame_s = scene.dt_s * scene.steps_per_frame
@@ -585,7 +624,7 @@ def sew(
     model.set_seam_stiffness(k_final * ramp[0])
     if soft < 1.0:
         model.scale_cloth_stiffness(soft)
-    gap = math.inf
+    gap, gaps, stalled = math.inf, [], False
     done = 0
     try:
         while done < frames:
@@ -597,8 +636,14 @@ def sew(
                                          f"sewing (vertex {bad[1]})")  # fmt: skip
             x = state.positions()
             gap = float(np.max(np.linalg.norm(x[pairs[:, 0]] - x[pairs[:, 1]], axis=1) - rest))
+            gaps.append(gap)
             if gap < gap_m:
                 break
+            if len(gaps) > SEW_STALL_FRAMES and gap > SEW_STALL_SHRINK * gaps[-1 - SEW_STALL_FRAMES]:
+                stalled = True  # a corner held by the body: the ramp's stiffer seams close it
+                break
+        if speed_limit is not None:  # the seams have closed: no shock left to tame
+            speed_limit[None] = 0.0
         for k, f in enumerate(ramp[1:], 1):  # stiffen seams and cloth, then gravity acts
             model.set_seam_stiffness(k_final * f)
             if soft < 1.0:
@@ -611,10 +656,16 @@ def sew(
             model.scale_cloth_stiffness(1.0)
         control.gravity[None] = gravity
         solver.self_collider = saved
+        if speed_limit is not None:
+            speed_limit[None] = 0.0
+        for (a, b), (sa, sb) in zip(mu, mu_saved):
+            a[None], b[None] = sa, sb
+        if mu_self is not None:
+            mu_self[None] = mu_self_saved
     out.update(sew_sim_time_s=done * frame_s, sew_wall_time_s=time.perf_counter() - t0,
                sew_frames=done, sew_gap_m=gap, sew_dt_s=frame_s / sew_steps,
                sew_cloth_stiffness_factor=soft,
-               sew_gravity_fraction=float(gravity_fraction))  # fmt: skip
+               sew_gravity_fraction=float(gravity_fraction), sew_stalled=stalled)  # fmt: skip
     return out
 
 

@@ -61,6 +61,11 @@ class SymplecticEulerSolver:
         if self.has_faces:
             self.face_dv = ti.Vector.field(3, float, shape=max(1, model.particle_count))
             self.face_count = ti.field(ti.i32, shape=max(1, model.particle_count))
+        self.speed_limit = ti.field(float, shape=())
+        """Largest speed [m/s] a particle keeps after its velocity update (0: no limit, the
+        default, the paper's scheme). Not physics: the sewing phase sets it
+        (``sandbox.scene.drape.SEW_SPEED_LIMIT_M_S``) so that a seam closing across
+        centimetres cannot fling a stiff panel."""
         self.bad_step = ti.field(ti.i32, shape=())
         self.bad_vertex = ti.field(ti.i32, shape=())
         self.energy = ti.field(ti.f64, shape=())
@@ -296,13 +301,19 @@ class SymplecticEulerSolver:
 
     @ti.func
     def _free_velocity(self, i, v_in, gravity, damping, dt):
-        """Eq. 2: v(t+dt) = v(t) + dt F(t)/m, F = F_int + m g − γ m v(t) (0 if pinned)."""
+        """Eq. 2: v(t+dt) = v(t) + dt F(t)/m, F = F_int + m g − γ m v(t) (0 if pinned);
+        then scaled down to :attr:`speed_limit` if one is set and exceeded."""
         m = self.model
         w = m.particle_inv_mass[i]
         v_new = ti.Vector([0.0, 0.0, 0.0])
         if w > 0.0:
             f = self._gathered_force(i)
             v_new = v_in[i] + dt * (f * w + gravity[None] - damping[None] * v_in[i])
+            limit = self.speed_limit[None]
+            if limit > 0.0:
+                speed = v_new.norm()
+                if speed > limit:
+                    v_new *= limit / speed
         return v_new
 
     @ti.func
