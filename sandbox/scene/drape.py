@@ -39,19 +39,19 @@ SEW_TIME_LIMIT_S = 1.5
 SEW_STIFFNESS_FACTOR = 0.05
 """Seam springs pull at this fraction of their final stiffness while sewing (no gravity)."""
 SEW_MAX_DT_S = 0.0
-"""Off by default (0): set to 1e-4 to soften a stiff cloth while it sews, as the code did
-from 2 Dec 2026 until the speed limit (:data:`SEW_SPEED_LIMIT_M_S`) replaced it: softened
-cloth compresses under the seams' pull and the rolled hems it left failed three sleeveless
-tops at 1 cm (docs/drape.md). While sewing, an explicit scene whose step is shorter than
-this [s] (a stiff fabric or a fine mesh) softens its cloth (membrane and bending) so that this step is stable (the stable
-step goes as 1/sqrt(stiffness)), but by no more than :data:`SEW_STIFFNESS_FACTOR`; the seams
-close with that longer step. A placed panel starts a few per cent strained where it is
-wrapped around the body, and at full stiffness that strain energy shook a stiff fabric at a
-median 10-17 m/s for the whole sewing phase (polyester at 1.5 cm, dt = 20 us; speed ~ strain
-x sqrt(E/density)): every step rebuilt the self-collision list, and the seams were still
-open at the time limit (ad-hoc runs, docs/drape.md "Run"). Soft fabrics sew as before: with
-jersey at 3 cm (0.4 ms steps) softened too and sewn at 1.9 ms steps, four sleeved tops of
-the quick gallery ended with 1-4 vertices inside the body."""
+"""Off by default (0): set to 1e-4 to soften a stiff cloth while it sews, as the code did from
+2 Dec 2026 until the speed limit (:data:`SEW_SPEED_LIMIT_M_S`) replaced it: softened cloth
+compresses under the seams' pull and the rolled hems it left failed three sleeveless tops at
+1 cm (docs/drape.md). While sewing, an explicit scene whose step is shorter than this [s] (a
+stiff fabric or a fine mesh) softens its cloth (membrane and bending) so that this step is
+stable (the stable step goes as 1/sqrt(stiffness)), but by no more than
+:data:`SEW_STIFFNESS_FACTOR`; the seams close with that longer step. A placed panel starts a
+few per cent strained where it is wrapped around the body, and at full stiffness that strain
+energy shook a stiff fabric at a median 10-17 m/s for the whole sewing phase (polyester at
+1.5 cm, dt = 20 us; speed ~ strain x sqrt(E/density)): every step rebuilt the self-collision
+list, and the seams were still open at the time limit (ad-hoc runs, docs/drape.md "Run").
+Soft fabrics sew as before: with jersey at 3 cm (0.4 ms steps) softened too and sewn at 1.9
+ms steps, four sleeved tops of the quick gallery ended with 1-4 vertices inside the body."""
 SEW_SELF_COLLISION = True
 """Self-collision during the sewing phase too. Off, seams close faster and a panel that starts
 on the wrong side of another can pass through it, but the garment keeps those crossings
@@ -639,7 +639,8 @@ def sew(
             gaps.append(gap)
             if gap < gap_m:
                 break
-            if len(gaps) > SEW_STALL_FRAMES and gap > SEW_STALL_SHRINK * gaps[-1 - SEW_STALL_FRAMES]:
+            back = gaps[-1 - SEW_STALL_FRAMES] if len(gaps) > SEW_STALL_FRAMES else math.inf
+            if gap > SEW_STALL_SHRINK * back:
                 stalled = True  # a corner held by the body: the ramp's stiffer seams close it
                 break
         if speed_limit is not None:  # the seams have closed: no shock left to tame
@@ -658,7 +659,7 @@ def sew(
         solver.self_collider = saved
         if speed_limit is not None:
             speed_limit[None] = 0.0
-        for (a, b), (sa, sb) in zip(mu, mu_saved):
+        for (a, b), (sa, sb) in zip(mu, mu_saved, strict=True):
             a[None], b[None] = sa, sb
         if mu_self is not None:
             mu_self[None] = mu_self_saved
