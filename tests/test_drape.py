@@ -64,6 +64,17 @@ def test_drape_outputs(skirt_run):
     assert text.count("\nvt ") == res.scene.model.particle_count
 
 
+def test_sewing_hands_back_the_scene_as_it_found_it(skirt_run):
+    """The sewing phase's speed limit is lifted and the body's friction is the scene's."""
+    res, _ = skirt_run
+    m, scene = res.metrics, res.scene
+    assert isinstance(m["sew_stalled"], bool) and m["sew_frames"] > 0
+    assert scene.solver.speed_limit[None] == 0.0
+    body = [c for c in scene.model.colliders if hasattr(c, "mu_s")]
+    assert body and all(c.mu_s[None] == pytest.approx(0.4) for c in body)
+    assert all(c.mu_k[None] == pytest.approx(0.3) for c in body)
+
+
 def test_ease_of_a_cylinder(mannequin):
     """A closed tube of radius R around the hip: ease = 2πR − body girth."""
     y = float(mannequin.landmarks["hip_front"][1])
