@@ -560,19 +560,20 @@ def sew(
 ) -> dict:
     """Sewing phase: close the seams, then stiffen them and turn full gravity on.
 
-    The seam springs pull at :data:`SEW_STIFFNESS_FACTOR` of their final stiffness (as stiff
-    as the cloth: the seams then hold the garment's weight) until every spring is shorter
-    than ``gap_m``, the largest gap stalls (:data:`SEW_STALL_FRAMES`) or ``time_limit_s`` of
+    The seam springs pull at :data:`SEW_STIFFNESS_FACTOR` of their final stiffness (as stiff as
+    the cloth: the seams then hold the garment's weight) until every spring is shorter than
+    ``gap_m``, the largest gap stalls (:data:`SEW_STALL_FRAMES`) or ``time_limit_s`` of
     simulated time has passed. Meanwhile no particle keeps a speed above
-    :data:`SEW_SPEED_LIMIT_M_S` and the body and the cloth are frictionless
-    (:data:`SEW_FRICTION`); a stiff cloth is softened only if :data:`SEW_MAX_DT_S` is set
-    (off by default). Then seams and cloth stiffen together over :data:`SEW_RAMP_FRAMES`
-    frames at the scene's own step, without the speed limit. With ``self_collision=False``
-    the cloth does not collide with itself while sewing (seam edges that start on the wrong
-    side of another panel, like a sleeve cap over the bodice, can then reach their partner).
-    Returns ``{"sew_sim_time_s", "sew_wall_time_s", "sew_frames", "sew_gap_m", "sew_dt_s",
-    "sew_cloth_stiffness_factor", "sew_gravity_fraction", "sew_stalled"}`` (``sew_dt_s``
-    and the factor: the sewing frames' step [s] and the cloth's stiffness factor in them).
+    :data:`SEW_SPEED_LIMIT_M_S`, and the body's and the cloth's friction is :data:`SEW_FRICTION`
+    if that is set (default: the scene's own); a stiff cloth is softened only if
+    :data:`SEW_MAX_DT_S` is set (off by default). Then seams and cloth stiffen together over
+    :data:`SEW_RAMP_FRAMES` frames at the scene's own step, without the speed limit. With
+    ``self_collision=False`` the cloth does not collide with itself while sewing (seam edges
+    that start on the wrong side of another panel, like a sleeve cap over the bodice, can then
+    reach their partner). Returns ``{"sew_sim_time_s", "sew_wall_time_s", "sew_frames",
+    "sew_gap_m", "sew_dt_s", "sew_cloth_stiffness_factor", "sew_gravity_fraction",
+    "sew_stalled"}`` (``sew_dt_s`` and the factor: the sewing frames' step [s] and the cloth's
+    stiffness factor in them).
 
     ``gravity_fraction`` scales gravity while sewing. Default: :data:`SEW_GRAVITY_TOPS` for
     a garment that hangs from the shoulders (:func:`hangs_from`), none for one that hangs
