@@ -1,12 +1,13 @@
 """Wall time of one drape: ``python benchmarks/bench_drape.py [GARMENT ...] [--edge-cm 1]``.
 
 Default garments: the library's pencil skirt and T-shirt (or the test skirt if the library
-is missing). Each drape runs in a fresh output directory under ``out/bench_drape`` and
+is missing). Each drape runs in its own output directory, ``out/bench_drape/GARMENT_sizeN_Ecm``, and
 prints one line of JSON: vertices, steps, dt, sewing and draping time (simulated, wall),
 the sewing step and cloth softening, compile time, convergence, seam gap, contact counts,
 ease, hem rise, folded area, acceptance. ``--sew-max-dt-ms 0`` sews without softening a stiff cloth
 (the code before 2 Dec 2026), for comparison with the default (``SEW_MAX_DT_S``);
-``--sew-gravity 1`` sews tops and dresses under full gravity.
+``--sew-gravity 1`` sews tops and dresses under full gravity. ``--size 8 12 18`` drapes each
+garment on each size; ``--table`` ends with a Markdown table of the acceptance checks.
 """
 
 from __future__ import annotations
@@ -28,11 +29,31 @@ KEYS = ("vertex_count", "fabric", "dt_s", "steps", "sew_sim_time_s", "sew_wall_t
         "meets_acceptance")  # fmt: skip
 
 
+def markdown_table(rows: list[dict]) -> str:
+    """The acceptance checks of bench rows as a Markdown table (one line per drape)."""
+    head = ("| garment | size | fabric | vertices | wall (s) | converged | seam gap (mm) "
+            "| inside | crossing pairs | turned over (%) | meets acceptance |")  # fmt: skip
+    lines = [head, "|" + "---|" * 11]
+    for r in rows:
+        gap = r.get("seam_gap_max_m")
+        fold = r.get("folded_area_pct")
+        lines.append(
+            f"| {Path(r['garment']).stem} | {r['size']} | {r.get('fabric')} "
+            f"| {r.get('vertex_count')} | {r.get('total_wall_time_s') or 0:.0f} "
+            f"| {'yes' if r.get('converged') else 'no'} "
+            f"| {'-' if gap is None else f'{1000 * gap:.2f}'} | {r.get('vertices_inside_body')} "
+            f"| {r.get('intersecting_triangle_pairs')} | {'-' if fold is None else f'{fold:.1f}'} "
+            f"| {'**yes**' if r.get('meets_acceptance') else 'no'} |"
+        )
+    return "\n".join(lines)
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("garments", nargs="*")
     p.add_argument("--edge-cm", type=float, default=1.0)
-    p.add_argument("--size", type=int, default=12)
+    p.add_argument("--size", type=int, nargs="+", default=[12],
+                   help="database size(s), e.g. --size 8 12 18 (default 12)")  # fmt: skip
     p.add_argument("--fabric", default=None)
     p.add_argument("--no-self-collision", action="store_true")
     p.add_argument("--float64", action="store_true")
@@ -56,6 +77,18 @@ def main(argv=None) -> int:
         help="largest particle speed while sewing [m/s] (sandbox.scene.drape."
         "SEW_SPEED_LIMIT_M_S); 0: none",
     )
+    p.add_argument(
+        "--sew-friction",
+        type=float,
+        default=None,
+        help="body and cloth friction while sewing (sandbox.scene.drape.SEW_FRICTION; "
+        "default: the scene's own)",
+    )
+    p.add_argument(
+        "--table",
+        action="store_true",
+        help="after the JSON lines, a Markdown table of the acceptance checks",
+    )
     args = p.parse_args(argv)
 
     from sandbox import runtime
@@ -68,6 +101,8 @@ def main(argv=None) -> int:
         drape_module.SEW_SPEED_LIMIT_M_S = args.sew_speed_limit
     if args.sew_gravity is not None:
         drape_module.SEW_GRAVITY_TOPS = args.sew_gravity
+    if args.sew_friction is not None:
+        drape_module.SEW_FRICTION = args.sew_friction
 
     runtime.init("cpu", float64=args.float64)
     garments = args.garments or (
@@ -75,22 +110,30 @@ def main(argv=None) -> int:
         if garment_names()
         else [str(ROOT / "tests" / "data" / "drape_skirt.json")]
     )
-    mannequin = make_mannequin(args.size)
-    for g in garments:
-        t0 = time.perf_counter()
-        res = drape(g, mannequin=mannequin, out_dir=ROOT / "out" / "bench_drape" / Path(g).stem,
-                    edge_length_m=args.edge_cm / 100, fabric=args.fabric, progress=False,
-                    self_collision=not args.no_self_collision)  # fmt: skip
-        row = {
-            "garment": g,
-            "edge_cm": args.edge_cm,
-            "size": args.size,
-            "sew_max_dt_s": drape_module.SEW_MAX_DT_S,
-            "sew_speed_limit_m_s": drape_module.SEW_SPEED_LIMIT_M_S,
-        }
-        row.update({k: res.metrics.get(k) for k in KEYS})
-        row["command_wall_s"] = time.perf_counter() - t0
-        print(json.dumps(row), flush=True)
+    rows = []
+    for size in args.size:
+        mannequin = make_mannequin(size)
+        for g in garments:
+            t0 = time.perf_counter()
+            # one directory per garment, size and mesh, so runs side by side do not clash
+            out = ROOT / "out" / "bench_drape" / f"{Path(g).stem}_size{size}_{args.edge_cm:g}cm"
+            res = drape(g, mannequin=mannequin, out_dir=out, edge_length_m=args.edge_cm / 100,
+                        fabric=args.fabric, progress=False,
+                        self_collision=not args.no_self_collision)  # fmt: skip
+            row = {
+                "garment": g,
+                "edge_cm": args.edge_cm,
+                "size": size,
+                "sew_max_dt_s": drape_module.SEW_MAX_DT_S,
+                "sew_speed_limit_m_s": drape_module.SEW_SPEED_LIMIT_M_S,
+                "sew_friction": drape_module.SEW_FRICTION,
+            }
+            row.update({k: res.metrics.get(k) for k in KEYS})
+            row["command_wall_s"] = time.perf_counter() - t0
+            rows.append(row)
+            print(json.dumps(row), flush=True)
+    if args.table:
+        print(markdown_table(rows))
     return 0
 
 
