@@ -31,19 +31,17 @@ KEYS = ("vertex_count", "fabric", "dt_s", "steps", "sew_sim_time_s", "sew_wall_t
 
 def markdown_table(rows: list[dict]) -> str:
     """The acceptance checks of bench rows as a Markdown table (one line per drape)."""
-    head = ("| garment | size | fabric | vertices | wall (s) | converged | seam gap (mm) "
-            "| inside | crossing pairs | turned over (%) | meets acceptance |")  # fmt: skip
-    lines = [head, "|" + "---|" * 11]
+    from sandbox.scene.gallery import ACCEPTANCE_HEAD, acceptance_cells
+
+    lines = [
+        "| garment | size | fabric | vertices | wall (s) | " + ACCEPTANCE_HEAD + " |",
+        "|" + "---|" * 11,
+    ]
     for r in rows:
-        gap = r.get("seam_gap_max_m")
-        fold = r.get("folded_area_pct")
         lines.append(
             f"| {Path(r['garment']).stem} | {r['size']} | {r.get('fabric')} "
             f"| {r.get('vertex_count')} | {r.get('total_wall_time_s') or 0:.0f} "
-            f"| {'yes' if r.get('converged') else 'no'} "
-            f"| {'-' if gap is None else f'{1000 * gap:.2f}'} | {r.get('vertices_inside_body')} "
-            f"| {r.get('intersecting_triangle_pairs')} | {'-' if fold is None else f'{fold:.1f}'} "
-            f"| {'**yes**' if r.get('meets_acceptance') else 'no'} |"
+            f"| {acceptance_cells(r)} |"
         )
     return "\n".join(lines)
 

@@ -120,4 +120,4 @@ def test_the_gallery_table_counts_the_garments_that_meet_the_acceptance(tmp_path
     rows = [_row("a", good), _row("b", gap), _row("c", slid)]
     text = write_table(tmp_path / "gallery.md", rows).read_text()
     assert "1 of 3 meet the acceptance; median wall time 30 s." in text
-    assert "| c | jersey | 900 | 30 | yes | 1.50 | 0 | 0 | +8.0 | 0.5 | no |" in text
+    assert "| c | jersey | 900 | 30 | +8.0 | yes | 1.50 | 0 | 0 | 0.5 | no |" in text

@@ -171,6 +171,24 @@ def _cm(v) -> str:
     return "-" if v is None else f"{v:+.1f}"
 
 
+ACCEPTANCE_HEAD = (
+    "converged | seam gap max (mm) | inside body | intersecting pairs | folded (% area) | "
+    "meets acceptance"
+)
+
+
+def acceptance_cells(r: dict) -> str:
+    """The acceptance checks of one drape's metrics as Markdown cells, in the order of
+    :data:`ACCEPTANCE_HEAD` (shared by the gallery table and ``benchmarks/bench_drape.py``)."""
+    folded = r.get("folded_area_pct")
+    return (
+        f"{'yes' if r.get('converged') else 'no'} | {_mm(r.get('seam_gap_max_m'))} | "
+        f"{r.get('vertices_inside_body')} | {r.get('intersecting_triangle_pairs')} | "
+        f"{'-' if folded is None else f'{folded:.1f}'} | "
+        f"{'**yes**' if r.get('meets_acceptance') else 'no'}"
+    )
+
+
 def write_table(path, rows: list[dict], header: str = "") -> Path:
     """The gallery's Markdown table."""
     from sandbox.atomic import write_text
@@ -180,10 +198,9 @@ def write_table(path, rows: list[dict], header: str = "") -> Path:
         lines += [header + ".", ""]
     lines += ["![gallery](gallery.png)", ""]
     lines += [
-        "| garment | fabric | vertices | wall time (s) | converged | seam gap max (mm) | "
-        "inside body | intersecting pairs | top below anchor (cm) | folded (% area) | "
-        "meets acceptance | "
-        "ease bust (cm) | ease waist (cm) | ease hip (cm) |",
+        "| garment | fabric | vertices | wall time (s) | top below anchor (cm) | "
+        + ACCEPTANCE_HEAD
+        + " | ease bust (cm) | ease waist (cm) | ease hip (cm) |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     passed = 0
@@ -192,14 +209,10 @@ def write_table(path, rows: list[dict], header: str = "") -> Path:
             lines.append(f"| {r['garment']} | failed: {r['error'][:120]} |" + "  |" * 12)
             continue
         passed += bool(r.get("meets_acceptance"))
-        below, folded = r.get("top_below_anchor_m"), r.get("folded_area_pct")
+        below = r.get("top_below_anchor_m")
         lines.append(
             f"| {r['garment']} | {r['fabric']} | {r['vertices']} | {r['wall_time_s']:.0f} | "
-            f"{'yes' if r['converged'] else 'no'} | {_mm(r['seam_gap_max_m'])} | "
-            f"{r['vertices_inside_body']} | {r['intersecting_triangle_pairs']} | "
-            f"{'-' if below is None else f'{below * 100:+.1f}'} | "
-            f"{'-' if folded is None else f'{folded:.1f}'} | "
-            f"{'yes' if r.get('meets_acceptance') else 'no'} | "
+            f"{'-' if below is None else f'{below * 100:+.1f}'} | {acceptance_cells(r)} | "
             f"{_cm(r['ease_bust_cm'])} | {_cm(r['ease_waist_cm'])} | {_cm(r['ease_hip_cm'])} |"
         )
     times = sorted(r["wall_time_s"] for r in rows if "error" not in r)
