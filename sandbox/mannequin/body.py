@@ -24,7 +24,7 @@ import math
 import numpy as np
 
 from sandbox.mannequin.sections import breasts, hull_perimeter, torso_ring
-from sandbox.mannequin.shape import ARM_ANGLE_MIN_RAD, BodyShape
+from sandbox.mannequin.shape import ARM_ANGLE_MIN_RAD, ARM_CLEARANCE_M, BodyShape
 
 # (front depth / width, back depth / width, exponent, -) of each torso key ring.
 TORSO_RINGS = ("crotch_top", "hip", "high_hip", "waist", "underbust", "bust", "armpit")
@@ -202,8 +202,9 @@ def arm_frames(s: BodyShape, loop: np.ndarray, torso_half_width) -> dict:
     """Centres, normals and in-plane axes of the left arm's key sections.
 
     The arm hangs in an A-pose at angle theta from vertical, at least
-    :data:`ARM_ANGLE_MIN_RAD`, opened further if the arm would touch the torso
-    (``torso_half_width(y)`` gives the torso's half width at height y).
+    :data:`ARM_ANGLE_MIN_RAD`, opened further until the arm clears the torso by
+    :data:`ARM_CLEARANCE_M` (``torso_half_width(y)`` gives the torso's half width at
+    height y).
     """
     c0 = loop.mean(axis=0)
     _, _, vt = np.linalg.svd(loop - c0)
@@ -225,7 +226,7 @@ def arm_frames(s: BodyShape, loop: np.ndarray, torso_half_width) -> dict:
         r = g / (2 * math.pi)
         for _ in range(3):
             y = joint[1] - d * math.cos(theta)
-            need = torso_half_width(y) + 0.012 + r / math.cos(theta) - joint[0]
+            need = torso_half_width(y) + ARM_CLEARANCE_M + r / math.cos(theta) - joint[0]
             theta = max(theta, math.atan2(need, d))
     axis = np.array([math.sin(theta), -math.cos(theta), 0.0])
     blend = np.array([0.6, 1.0, 1.0, 1.0, 1.0])
