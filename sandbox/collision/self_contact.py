@@ -213,11 +213,17 @@ class SelfCollider:
         self.needs_build = ti.field(ti.i32, shape=())
         self.needs_build[None] = 1
 
-    def set_seam_partners(self, seam_pairs: np.ndarray | None) -> None:
-        """Exclude the pairs joined by ``seam_pairs`` (k, 2) and their mesh neighbours.
+    def set_seam_partners(self, seam_pairs: np.ndarray | None, neighbours: bool = True) -> None:
+        """Exclude the pairs joined by ``seam_pairs`` (k, 2) and, with ``neighbours``, their
+        mesh neighbours: a vertex is not pushed away from the triangles that hold its seam
+        partner (or one of the partner's neighbours).
 
-        Called at construction and whenever the seams change (set_seam_springs); the
-        candidate list is rebuilt at the next step.
+        The neighbours let a seam close: a vertex next to its partner's triangles would
+        otherwise be held a thickness away from them. Once the seams are closed, the drape
+        narrows the exclusion to the partners themselves (``neighbours=False``), so the
+        panels next to a seam cannot pass through each other. Called at construction and
+        whenever the seams change (set_seam_springs); the candidate list is rebuilt at the
+        next step.
         """
         n = self.model.particle_count
         near = [set() for _ in range(n)]
@@ -229,8 +235,8 @@ class SelfCollider:
                     self._ring[b].add(a)
             ring = self._ring
             for a, b in np.asarray(seam_pairs, np.int64):
-                near[a].update({b} | ring[b])
-                near[b].update({a} | ring[a])
+                near[a].update({b} | ring[b] if neighbours else {b})
+                near[b].update({a} | ring[a] if neighbours else {a})
         partners = [sorted(s) for s in near]
         start = np.zeros(n + 1, np.int64)
         start[1:] = np.cumsum([len(p) for p in partners])

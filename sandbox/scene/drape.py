@@ -97,6 +97,10 @@ spring is then a corner held by the body, such as a side seam's top in the armpi
 blouse 51 sewing frames, about 18 min on one core. The ramp's stiffer seams close it."""
 SEW_RAMP_FRAMES = 6
 """Frames over which the seams stiffen geometrically to their final stiffness."""
+SEW_NARROW_EXCLUSION = False
+"""After sewing, narrow the self-collision's seam exclusion from the partners and their
+mesh neighbours to the partners alone (:meth:`SelfCollider.set_seam_partners`), so the
+panels beside a closed seam cannot pass through each other while the garment drapes."""
 DRAPE_MIN_TIME_S = 0.5
 DRAPE_TIME_LIMIT_S = 8.0
 DRAPE_WALL_LIMIT_S = 1800.0
@@ -664,6 +668,8 @@ def sew(
             a[None], b[None] = sa, sb
         if mu_self is not None:
             mu_self[None] = mu_self_saved
+    if SEW_NARROW_EXCLUSION and solver.self_collider is not None:
+        solver.self_collider.set_seam_partners(pairs, neighbours=False)
     out.update(sew_sim_time_s=done * frame_s, sew_wall_time_s=time.perf_counter() - t0,
                sew_frames=done, sew_gap_m=gap, sew_dt_s=frame_s / sew_steps,
                sew_cloth_stiffness_factor=soft,
