@@ -134,3 +134,25 @@ def test_implicit_drape_sews_and_drapes_the_tube_skirt(mannequin, tmp_path):
     assert m["nan_positions"] == 0 and m["vertices_inside_body"] == 0
     assert m["sew_frames"] > 0 and m["sew_gap_m"] < 0.01
     assert res.scene.solver.stats()["factorisations"] > 0  # the direct linear solver ran
+
+
+def test_the_seam_exclusion_narrows_to_the_partners(skirt_run):
+    """Self-collision leaves out a vertex's seam partners and their mesh neighbours while the
+    seams close, and only the partners once they are closed."""
+    model = skirt_run[0].scene.model
+    collider, pairs = model.self_collider, model.seam_pairs_np
+
+    def excluded(v):
+        start, flat = collider.partner_start.to_numpy(), collider.partner.to_numpy()
+        return set(flat[start[v] : start[v + 1]].tolist())
+
+    a = int(pairs[0, 0])
+    partners = set(pairs[pairs[:, 0] == a, 1].tolist()) | set(pairs[pairs[:, 1] == a, 0].tolist())
+    try:
+        collider.set_seam_partners(pairs, neighbours=True)
+        wide = excluded(a)
+        collider.set_seam_partners(pairs, neighbours=False)
+        assert excluded(a) == partners
+        assert partners < wide and len(wide) >= len(partners) + 3
+    finally:
+        collider.set_seam_partners(pairs)
