@@ -23,7 +23,8 @@ KEYS = ("vertex_count", "fabric", "dt_s", "steps", "sew_sim_time_s", "sew_wall_t
         "sew_frames", "sew_gap_m", "sew_dt_s", "sew_cloth_stiffness_factor",
         "sew_gravity_fraction", "sew_stalled", "sim_time_s",
         "wall_time_s", "total_wall_time_s", "compile_time_s", "build_time_s",
-        "converged", "stop_reason", "seam_gap_max_m", "vertices_inside_body",
+        "converged", "stop_reason", "max_displacement_m", "mean_displacement_m",
+        "seam_gap_max_m", "vertices_inside_body",
         "intersecting_triangle_pairs", "ease_bust_cm", "ease_waist_cm", "ease_hip_cm",
         "top_below_anchor_m", "hem_rise_m", "folded_area_pct", "rolled_up",
         "meets_acceptance")  # fmt: skip
