@@ -106,7 +106,8 @@ after sewing, 5 at the end of a drape without the option), and self-collision do
 crossings it is handed, so narrowing afterwards cannot remove them (that run was stopped
 before its end); narrowed from the start
 (sewing included) it ends with 0 pairs but a 3.2 mm seam gap at the junction, still moving
-at the 30 min wall-clock limit (ad-hoc runs, thirteenth session)."""
+at the 30 min wall-clock limit (ad-hoc runs, thirteenth session, whose start also fitted
+each sleeve rigidly to its armhole, the twelfth session's experiment; docs/drape.md)."""
 DRAPE_MIN_TIME_S = 0.5
 DRAPE_TIME_LIMIT_S = 8.0
 DRAPE_WALL_LIMIT_S = 1800.0
