@@ -137,8 +137,8 @@ def test_implicit_drape_sews_and_drapes_the_tube_skirt(mannequin, tmp_path):
 
 
 def test_the_seam_exclusion_narrows_to_the_partners(skirt_run):
-    """Self-collision leaves out a vertex's seam partners and their mesh neighbours while the
-    seams close, and only the partners once they are closed."""
+    """Self-collision leaves out a vertex's seam partners and their mesh neighbours (the
+    default, so seams can close), or only the partners when asked."""
     model = skirt_run[0].scene.model
     collider, pairs = model.self_collider, model.seam_pairs_np
 

@@ -219,11 +219,11 @@ class SelfCollider:
         partner (or one of the partner's neighbours).
 
         The neighbours let a seam close: a vertex next to its partner's triangles would
-        otherwise be held a thickness away from them. Once the seams are closed, the drape
-        narrows the exclusion to the partners themselves (``neighbours=False``), so the
-        panels next to a seam cannot pass through each other. Called at construction and
-        whenever the seams change (set_seam_springs); the candidate list is rebuilt at the
-        next step.
+        otherwise be held a thickness away from them. ``neighbours=False`` (used by the
+        drape once the seams are closed if ``SEW_NARROW_EXCLUSION`` is set; off by
+        default) keeps only the partners, so the panels next to a seam cannot pass through
+        each other. Called at construction and whenever the seams change
+        (set_seam_springs); the candidate list is rebuilt at the next step.
         """
         n = self.model.particle_count
         near = [set() for _ in range(n)]

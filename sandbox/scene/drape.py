@@ -100,14 +100,15 @@ SEW_RAMP_FRAMES = 6
 SEW_NARROW_EXCLUSION = False
 """After sewing, narrow the self-collision's seam exclusion from the partners and their
 mesh neighbours to the partners alone (:meth:`SelfCollider.set_seam_partners`), so the
-panels beside a closed seam cannot pass through each other while the garment drapes. Off:
-the 1 cm T-shirt's crossing pairs at its underarm junction are made while it is sewn (5
-after sewing, 5 at the end of a drape without the option), and self-collision does not undo
-crossings it is handed, so narrowing afterwards cannot remove them (that run was stopped
-before its end); narrowed from the start
-(sewing included) it ends with 0 pairs but a 3.2 mm seam gap at the junction, still moving
-at the 30 min wall-clock limit (ad-hoc runs, thirteenth session, whose start also fitted
-each sleeve rigidly to its armhole, the twelfth session's experiment; docs/drape.md)."""
+panels beside a closed seam cannot pass through each other while the garment drapes.
+
+Off: the 1 cm T-shirt's crossing pairs at its underarm junction are made while it is sewn
+(5 after sewing, 5 at the end of a drape without the option), and self-collision does not
+undo crossings it is handed, so narrowing afterwards cannot remove them (that run was
+stopped before its end). Narrowed from the start, sewing included, it ended with 0 pairs
+but a 3.2 mm seam gap at the junction, still moving at the 30 min wall-clock limit. Ad-hoc
+runs of the thirteenth session, whose start also fitted each sleeve rigidly to its
+armhole (the twelfth session's experiment; docs/drape.md)."""
 DRAPE_MIN_TIME_S = 0.5
 DRAPE_TIME_LIMIT_S = 8.0
 DRAPE_WALL_LIMIT_S = 1800.0
