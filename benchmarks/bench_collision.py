@@ -71,7 +71,7 @@ def main() -> None:
                     help="then also 20 self-collision steps under Taichi's kernel profiler: "
                     "time per loop of the list rebuild and the contact passes")  # fmt: skip
     args = ap.parse_args()
-    runtime.init("cpu", profile=args.profile)
+    runtime.init("cpu", float64=False, profile=args.profile)  # float32, as bench_step
     both = build_scene(spec(args.vertices, True, True))
     body = build_scene(spec(args.vertices, True))
     free = build_scene(spec(args.vertices, False))

@@ -18,6 +18,8 @@ import sys
 import time
 from pathlib import Path
 
+from sandbox.precision import add_precision_flags
+
 ROOT = Path(__file__).resolve().parents[1]
 KEYS = ("vertex_count", "fabric", "dt_s", "steps", "sew_sim_time_s", "sew_wall_time_s",
         "sew_frames", "sew_gap_m", "sew_dt_s", "sew_cloth_stiffness_factor",
@@ -55,7 +57,7 @@ def main(argv=None) -> int:
                    help="database size(s), e.g. --size 8 12 18 (default 12)")  # fmt: skip
     p.add_argument("--fabric", default=None)
     p.add_argument("--no-self-collision", action="store_true")
-    p.add_argument("--float64", action="store_true")
+    add_precision_flags(p)
     p.add_argument(
         "--sew-max-dt-ms",
         type=float,

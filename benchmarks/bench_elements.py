@@ -66,7 +66,7 @@ def main() -> None:
     ap.add_argument("--vertices", type=int, default=16000)
     ap.add_argument("--noise-mm", type=float, nargs="+", default=[0.0, 0.1])
     args = ap.parse_args()
-    runtime.init("cpu")
+    runtime.init("cpu", float64=False)  # the float32 step, as bench_step
     print(f"machine: {platform.machine()}, {os.cpu_count()} cores, Python "
           f"{platform.python_version()}, Taichi {'.'.join(map(str, ti.__version__))}, float32, "
           f"parallel loops")  # fmt: skip

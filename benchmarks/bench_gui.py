@@ -19,6 +19,8 @@ import time
 
 import numpy as np
 
+from sandbox.precision import add_precision_flags
+
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -32,12 +34,13 @@ def main() -> None:
         default=None,
         help="fixed simulation wall time per frame [s] (default: what 30 fps leaves)",
     )
+    add_precision_flags(ap)  # the figures in docs/results/bench_gui.txt before 2 Dec: float32
     args = ap.parse_args()
     from sandbox import runtime
     from sandbox.app.gui import FrameBudget, Renderer, run_window
     from sandbox.app.session import Session
 
-    runtime.init("cpu")
+    runtime.init("cpu", float64=args.float64)
     s = Session(args.garment, edge_cm=args.edge_cm, sewn=True)
     s.set_gravity(True)
     windowed = bool(os.environ.get("DISPLAY"))  # a real window (e.g. under Xvfb) if possible

@@ -280,7 +280,7 @@ def garment():
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("sections", nargs="*", default=list(SECTIONS), choices=[*SECTIONS, *EXTRA, []])
-    ap.add_argument("--float64", action="store_true")
+    runtime.add_precision_flags(ap)
     args = ap.parse_args()
     runtime.init("cpu", float64=args.float64)
     print(f"bench_implicit: {platform.machine()} {platform.processor() or 'cpu'}, python "

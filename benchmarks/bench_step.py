@@ -59,7 +59,7 @@ def main() -> None:
     ap.add_argument("--arch", default="cpu")
     ap.add_argument("--seconds", type=float, default=3.0)
     args = ap.parse_args()
-    runtime.init(args.arch)
+    runtime.init(args.arch, float64=False)  # issue 2 measures the float32 step
     print(f"machine: {platform.machine()}, {os.cpu_count()} cores, {platform.processor() or '?'}"
           f", Python {platform.python_version()}, Taichi {'.'.join(map(str, ti.__version__))},"
           f" arch={args.arch}, float32")  # fmt: skip

@@ -14,6 +14,7 @@ from importlib import resources
 from pathlib import Path
 
 from sandbox.errors import SandboxError
+from sandbox.precision import add_precision_flags
 
 log = logging.getLogger("sandbox")
 
@@ -30,7 +31,7 @@ def default_scene_path() -> Path:
 def _add_runtime_flags(p: argparse.ArgumentParser) -> None:
     p.add_argument("--arch", default="cpu", choices=["cpu", "gpu", "cuda", "vulkan"],
                    help="Taichi backend (default: cpu)")  # fmt: skip
-    p.add_argument("--float64", action="store_true", help="simulate in double precision")
+    add_precision_flags(p)
     p.add_argument("--quiet", "-q", action="store_true", help="no progress bar or summary")
 
 
@@ -313,7 +314,7 @@ def main(argv: list[str] | None = None) -> int:
                 "drape", args.garment, "--out", str(args.out), "--edge-cm", str(args.edge_cm),
                 "--arch", args.arch,
             ]  # fmt: skip
-            drape += ["--no-render"] * args.no_render + ["--float64"] * args.float64
+            drape += ["--no-render"] * args.no_render + ["--float32"] * (not args.float64)
             drape += ["--quiet"] * args.quiet
             return cmd_drape(parser.parse_args(drape))
         if args.command == "validate":

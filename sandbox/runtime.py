@@ -1,8 +1,8 @@
 """The one place that calls ``ti.init``.
 
 Kernels are arch-agnostic: the same code runs on ``cpu`` (default) or ``gpu``/``cuda``/
-``vulkan`` when a device exists. ``float64`` switches Taichi's default float type, used by
-the tests that compare forces against finite differences.
+``vulkan`` when a device exists. ``float64`` switches Taichi's default float type; it is
+the default (:data:`DEFAULT_FLOAT64`), ``float64=False`` gives float32.
 """
 
 from __future__ import annotations
@@ -12,6 +12,7 @@ import logging
 import taichi as ti
 
 from sandbox.errors import SandboxError
+from sandbox.precision import DEFAULT_FLOAT64, add_precision_flags  # noqa: F401
 
 log = logging.getLogger(__name__)
 
@@ -26,7 +27,7 @@ test suite) ran out and crashed inside Taichi (a segmentation fault, no message)
 RECYCLE_AT = 160
 
 
-def init(arch: str = "cpu", *, float64: bool = False, debug: bool = False,
+def init(arch: str = "cpu", *, float64: bool = DEFAULT_FLOAT64, debug: bool = False,
          profile: bool = False) -> None:  # fmt: skip
     """Initialise Taichi once per process.
 
@@ -54,7 +55,7 @@ def init(arch: str = "cpu", *, float64: bool = False, debug: bool = False,
 
 
 def ensure_init() -> None:
-    """Initialise with defaults (CPU, float32) if nobody did yet."""
+    """Initialise with defaults (CPU, :data:`DEFAULT_FLOAT64`) if nobody did yet."""
     if not _state["initialised"]:
         init()
 
@@ -64,7 +65,14 @@ def arch() -> str:
     return _state["arch"] or "cpu"
 
 
+def is_initialised() -> bool:
+    return bool(_state["initialised"])
+
+
 def is_float64() -> bool:
+    """The precision Taichi runs (or will run, once initialised with defaults) in."""
+    if not _state["initialised"]:
+        return DEFAULT_FLOAT64
     return bool(_state["float64"])
 
 
@@ -72,7 +80,7 @@ def float_dtype():
     """The numpy float type matching Taichi's default float."""
     import numpy as np
 
-    return np.float64 if _state["float64"] else np.float32
+    return np.float64 if is_float64() else np.float32
 
 
 def snode_trees() -> int:

@@ -37,3 +37,18 @@ def test_recycle_below_the_threshold_keeps_everything():
     assert runtime.recycle(threshold=runtime.MAX_SNODE_TREES) is False
     sc.solver.advance(sc.state, sc.control, sc.dt_s, 2)  # still valid
     assert np.isfinite(sc.state.positions()).all()
+
+
+def test_every_command_simulates_in_float64_unless_asked_for_float32():
+    # float32 left stiff 1 cm garments shaking in place (sandbox.precision.DEFAULT_FLOAT64)
+    from sandbox.app.cli import build_parser as gui_parser
+    from sandbox.cli import build_parser
+
+    p = build_parser()
+    for argv in (["drape", "t-shirt"], ["gallery"], ["demo"],
+                 ["validate", "cantilever"], ["run", "s.toml", "--out", "o"]):  # fmt: skip
+        assert p.parse_args(argv).float64 is True, argv
+        assert p.parse_args([*argv, "--float32"]).float64 is False, argv
+    assert gui_parser().parse_args([]).float64 is True
+    assert gui_parser().parse_args(["--float32"]).float64 is False
+    assert runtime.DEFAULT_FLOAT64 is True

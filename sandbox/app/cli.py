@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from sandbox.errors import SandboxError
+from sandbox.precision import add_precision_flags
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -45,6 +46,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-frames", type=int, default=None, help=argparse.SUPPRESS)
     p.add_argument("--status", type=Path, default=None, help=argparse.SUPPRESS)
     p.add_argument("--arch", default="cpu", help="Taichi arch (default cpu)")
+    add_precision_flags(p)
     return p
 
 
@@ -54,7 +56,10 @@ def main(argv: list[str] | None = None) -> int:
         from sandbox import runtime
         from sandbox.app.session import Session
 
-        runtime.init(args.arch, float64=runtime.is_float64())  # keep a caller's precision
+        # a caller that started Taichi keeps its precision
+        runtime.init(
+            args.arch, float64=runtime.is_float64() if runtime.is_initialised() else args.float64
+        )
         if args.offscreen and args.script is None:
             raise SandboxError("--offscreen needs --script FILE (a JSON list of actions)")
         actions = None

@@ -215,7 +215,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--only", choices=["all", "error", "stability"], default="all",
                     help="run only one part (default: all)")  # fmt: skip
     ap.add_argument("--arch", default="cpu", choices=["cpu", "gpu"])
-    ap.add_argument("--float64", action="store_true", help="simulate in double precision")
+    runtime.add_precision_flags(ap)
     ap.add_argument("--tiny", action="store_true", help=argparse.SUPPRESS)  # for the tests
     ap.add_argument(
         "--render", metavar="JSON", help="only rewrite the Markdown and the plot from a report.json"
