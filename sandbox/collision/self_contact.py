@@ -64,6 +64,12 @@ PAIRS_PER_VERTEX = 32
 PARTIAL_TAU = 0.2
 PARTIAL_FRACTION = 0.05
 ZONE_ROUNDS = 100
+NARROW_EDGE_EXCLUSION = True
+"""Edge-edge pairs are excluded only where an end of one edge is sewn to an end of the
+other (or to a partner of it, at a junction of three panels), not for the partner's whole
+mesh neighbourhood as vertex-triangle pairs are. With the neighbourhood, a panel's corner
+triangle next to a seam could swing through the other panel across the seam line (the
+1 cm camisole, size 12: four crossing pairs at the top of the side seam)."""
 KIND_VT = 0
 KIND_EE = 1
 # the passes' status: bit 0, the list covered the step and no pair collides at its end;
@@ -106,6 +112,10 @@ class SelfCollider:
         room = 2 * model.seam_capacity * (int(degree.max(initial=0)) + 1)
         self.partner_start = ti.field(ti.i32, shape=n + 1)
         self.partner = ti.field(ti.i32, shape=max(1, room))
+        # the edge-edge tests' own, narrower list (NARROW_EDGE_EXCLUSION): the partners
+        # and the partners' partners (the other panels at a seam junction)
+        self.ee_partner_start = ti.field(ti.i32, shape=n + 1)
+        self.ee_partner = ti.field(ti.i32, shape=max(1, room))
         self.set_seam_partners(model.seam_pairs_np)
 
         self.thickness = ti.field(float, shape=())
@@ -227,7 +237,11 @@ class SelfCollider:
         """
         n = self.model.particle_count
         near = [set() for _ in range(n)]
+        sewn = [set() for _ in range(n)]
         if seam_pairs is not None and len(seam_pairs):
+            for a, b in np.asarray(seam_pairs, np.int64):
+                sewn[a].add(int(b))
+                sewn[b].add(int(a))
             if self._ring is None:
                 self._ring = [set() for _ in range(n)]
                 for a, b in self.edges_np:
@@ -237,19 +251,29 @@ class SelfCollider:
             for a, b in np.asarray(seam_pairs, np.int64):
                 near[a].update({b} | ring[b] if neighbours else {b})
                 near[b].update({a} | ring[a] if neighbours else {a})
-        partners = [sorted(s) for s in near]
-        start = np.zeros(n + 1, np.int64)
-        start[1:] = np.cumsum([len(p) for p in partners])
-        flat = np.array([q for p in partners for q in p], np.int64)
-        if len(flat) > self.partner.shape[0]:
-            raise SandboxError(f"self-collision: {len(flat)} seam exclusions exceed the room "
-                               f"for {self.partner.shape[0]}")  # fmt: skip
-        self.partner_start.from_numpy(start.astype(np.int32))
-        pad = np.zeros(self.partner.shape[0], np.int32)
-        pad[: len(flat)] = flat
-        self.partner.from_numpy(pad)
+        if NARROW_EDGE_EXCLUSION:
+            edge_near = [set().union(s, *(sewn[b] for b in s)) - {a} for a, s in enumerate(sewn)]
+        else:
+            edge_near = near
+        self._store_partners(near, self.partner_start, self.partner)
+        self._store_partners(edge_near, self.ee_partner_start, self.ee_partner)
         if hasattr(self, "needs_build"):
             self.needs_build[None] = 1
+
+    @staticmethod
+    def _store_partners(near: list, start_field, flat_field) -> None:
+        """Each particle's set of partners, as CSR into two fields."""
+        partners = [sorted(s) for s in near]
+        start = np.zeros(len(near) + 1, np.int64)
+        start[1:] = np.cumsum([len(p) for p in partners])
+        flat = np.array([q for p in partners for q in p], np.int64)
+        if len(flat) > flat_field.shape[0]:
+            raise SandboxError(f"self-collision: {len(flat)} seam exclusions exceed the room "
+                               f"for {flat_field.shape[0]}")  # fmt: skip
+        start_field.from_numpy(start.astype(np.int32))
+        pad = np.zeros(flat_field.shape[0], np.int32)
+        pad[: len(flat)] = flat
+        flat_field.from_numpy(pad)
 
     # ------------------------------------------------------------------ grid helpers
     @ti.func
@@ -329,6 +353,15 @@ class SelfCollider:
         return found
 
     @ti.func
+    def _edge_partners(self, a, b):
+        """Is particle b sewn to particle a, or to one of a's partners? (symmetric)"""
+        found = False
+        for k in range(self.ee_partner_start[a], self.ee_partner_start[a + 1]):
+            if self.ee_partner[k] == b:
+                found = True
+        return found
+
+    @ti.func
     def _excluded_vt(self, u, t):
         """u is a corner of t, or t holds u's seam partner (or its neighbours)."""
         return (
@@ -341,8 +374,8 @@ class SelfCollider:
         """The edges share a vertex, or an end point of one is sewn near the other."""
         shared = a[0] == b[0] or a[0] == b[1] or a[1] == b[0] or a[1] == b[1]
         sewn = (
-            self._partners(a[0], b[0]) or self._partners(a[0], b[1])
-            or self._partners(a[1], b[0]) or self._partners(a[1], b[1])
+            self._edge_partners(a[0], b[0]) or self._edge_partners(a[0], b[1])
+            or self._edge_partners(a[1], b[0]) or self._edge_partners(a[1], b[1])
         )  # fmt: skip
         return shared or sewn
 
