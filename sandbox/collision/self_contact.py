@@ -109,7 +109,8 @@ class SelfCollider:
         # the model's seam capacity, so seams sewn live fit (set_seam_partners).
         self._ring = None
         degree = np.bincount(edges.ravel(), minlength=n) if len(edges) else np.zeros(n, int)
-        room = 2 * model.seam_capacity * (int(degree.max(initial=0)) + 1)
+        # each sewn pair adds up to a ring per partner, partners' partners included
+        room = 8 * model.seam_capacity * (int(degree.max(initial=0)) + 1)
         self.partner_start = ti.field(ti.i32, shape=n + 1)
         self.partner = ti.field(ti.i32, shape=max(1, room))
         # the edge-edge tests' own, narrower list (NARROW_EDGE_EXCLUSION): the partners
@@ -226,7 +227,10 @@ class SelfCollider:
     def set_seam_partners(self, seam_pairs: np.ndarray | None, neighbours: bool = True) -> None:
         """Exclude the pairs joined by ``seam_pairs`` (k, 2) and, with ``neighbours``, their
         mesh neighbours: a vertex is not pushed away from the triangles that hold its seam
-        partner (or one of the partner's neighbours).
+        partner (or one of the partner's neighbours). Partners' partners count as partners
+        (where three panels meet, as at an underarm, the third panel's vertex is otherwise
+        held a thickness away: 2 mm seam gaps at the 1 cm raglan top's underarms). Edge-edge
+        pairs use the partners alone (:data:`NARROW_EDGE_EXCLUSION`).
 
         The neighbours let a seam close: a vertex next to its partner's triangles would
         otherwise be held a thickness away from them. ``neighbours=False`` (used by the
@@ -247,14 +251,15 @@ class SelfCollider:
                 for a, b in self.edges_np:
                     self._ring[a].add(b)
                     self._ring[b].add(a)
+        # a's partners and its partners' partners: at a junction of three panels (an
+        # underarm) the third panel's vertex is sewn to a only through the second's
+        joined = [set().union(s, *(sewn[b] for b in s)) - {a} for a, s in enumerate(sewn)]
+        if seam_pairs is not None and len(seam_pairs):
             ring = self._ring
-            for a, b in np.asarray(seam_pairs, np.int64):
-                near[a].update({b} | ring[b] if neighbours else {b})
-                near[b].update({a} | ring[a] if neighbours else {a})
-        if NARROW_EDGE_EXCLUSION:
-            edge_near = [set().union(s, *(sewn[b] for b in s)) - {a} for a, s in enumerate(sewn)]
-        else:
-            edge_near = near
+            for a, s in enumerate(joined):
+                for b in s:
+                    near[a].update({b} | ring[b] if neighbours else {b})
+        edge_near = joined if NARROW_EDGE_EXCLUSION else near
         self._store_partners(near, self.partner_start, self.partner)
         self._store_partners(edge_near, self.ee_partner_start, self.ee_partner)
         if hasattr(self, "needs_build"):
