@@ -137,22 +137,30 @@ def test_implicit_drape_sews_and_drapes_the_tube_skirt(mannequin, tmp_path):
 
 
 def test_the_seam_exclusion_narrows_to_the_partners(skirt_run):
-    """Self-collision leaves out a vertex's seam partners and their mesh neighbours (the
-    default, so seams can close), or only the partners when asked."""
+    """Self-collision leaves out a vertex's seam partners (and their partners, for junctions
+    of three panels) with their mesh neighbours (the default, so seams can close), or only
+    the partners when asked; edge-edge tests always leave out the partners alone."""
     model = skirt_run[0].scene.model
     collider, pairs = model.self_collider, model.seam_pairs_np
 
-    def excluded(v):
-        start, flat = collider.partner_start.to_numpy(), collider.partner.to_numpy()
+    def excluded(v, edges=False):
+        start = (collider.ee_partner_start if edges else collider.partner_start).to_numpy()
+        flat = (collider.ee_partner if edges else collider.partner).to_numpy()
         return set(flat[start[v] : start[v + 1]].tolist())
 
+    def sewn(v):
+        return set(pairs[pairs[:, 0] == v, 1].tolist()) | set(pairs[pairs[:, 1] == v, 0].tolist())
+
     a = int(pairs[0, 0])
-    partners = set(pairs[pairs[:, 0] == a, 1].tolist()) | set(pairs[pairs[:, 1] == a, 0].tolist())
+    partners = sewn(a).union(*(sewn(b) for b in sewn(a))) - {a}
+    assert sewn(a) <= partners
     try:
         collider.set_seam_partners(pairs, neighbours=True)
         wide = excluded(a)
+        assert excluded(a, edges=True) == partners
         collider.set_seam_partners(pairs, neighbours=False)
         assert excluded(a) == partners
+        assert excluded(a, edges=True) == partners
         assert partners < wide and len(wide) >= len(partners) + 3
     finally:
         collider.set_seam_partners(pairs)
