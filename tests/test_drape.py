@@ -139,7 +139,10 @@ def test_implicit_drape_sews_and_drapes_the_tube_skirt(mannequin, tmp_path):
 def test_the_seam_exclusion_narrows_to_the_partners(skirt_run):
     """Self-collision leaves out a vertex's seam partners (and their partners, for junctions
     of three panels) with their mesh neighbours (the default, so seams can close), or only
-    the partners when asked; edge-edge tests always leave out the partners alone."""
+    the partners when asked; edge-edge tests the same, or the partners alone with
+    ``NARROW_EDGE_EXCLUSION``."""
+    from sandbox.collision import self_contact
+
     model = skirt_run[0].scene.model
     collider, pairs = model.self_collider, model.seam_pairs_np
 
@@ -154,13 +157,17 @@ def test_the_seam_exclusion_narrows_to_the_partners(skirt_run):
     a = int(pairs[0, 0])
     partners = sewn(a).union(*(sewn(b) for b in sewn(a))) - {a}
     assert sewn(a) <= partners
+    narrow = self_contact.NARROW_EDGE_EXCLUSION
     try:
-        collider.set_seam_partners(pairs, neighbours=True)
-        wide = excluded(a)
-        assert excluded(a, edges=True) == partners
-        collider.set_seam_partners(pairs, neighbours=False)
-        assert excluded(a) == partners
-        assert excluded(a, edges=True) == partners
-        assert partners < wide and len(wide) >= len(partners) + 3
+        for self_contact.NARROW_EDGE_EXCLUSION in (False, True):
+            collider.set_seam_partners(pairs, neighbours=True)
+            wide = excluded(a)
+            assert excluded(a, edges=True) == (partners if self_contact.NARROW_EDGE_EXCLUSION
+                                               else wide)  # fmt: skip
+            collider.set_seam_partners(pairs, neighbours=False)
+            assert excluded(a) == partners
+            assert excluded(a, edges=True) == partners
+            assert partners < wide and len(wide) >= len(partners) + 3
     finally:
+        self_contact.NARROW_EDGE_EXCLUSION = narrow
         collider.set_seam_partners(pairs)
