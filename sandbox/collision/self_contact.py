@@ -117,8 +117,8 @@ class SelfCollider:
         room = 8 * model.seam_capacity * (int(degree.max(initial=0)) + 1)
         self.partner_start = ti.field(ti.i32, shape=n + 1)
         self.partner = ti.field(ti.i32, shape=max(1, room))
-        # the edge-edge tests' own, narrower list (NARROW_EDGE_EXCLUSION): the partners
-        # and the partners' partners (the other panels at a seam junction)
+        # the edge-edge tests' list: the same as above, or with NARROW_EDGE_EXCLUSION only
+        # the partners and the partners' partners (the other panels at a seam junction)
         self.ee_partner_start = ti.field(ti.i32, shape=n + 1)
         self.ee_partner = ti.field(ti.i32, shape=max(1, room))
         self.set_seam_partners(model.seam_pairs_np)
@@ -234,7 +234,7 @@ class SelfCollider:
         partner (or one of the partner's neighbours). Partners' partners count as partners
         (where three panels meet, as at an underarm, the third panel's vertex is otherwise
         held a thickness away: 2 mm seam gaps at the 1 cm raglan top's underarms). Edge-edge
-        pairs use the partners alone (:data:`NARROW_EDGE_EXCLUSION`).
+        pairs use the same list, or the partners alone with :data:`NARROW_EDGE_EXCLUSION`.
 
         The neighbours let a seam close: a vertex next to its partner's triangles would
         otherwise be held a thickness away from them. ``neighbours=False`` (used by the
@@ -353,22 +353,23 @@ class SelfCollider:
                 count[c] = 0
 
     @ti.func
-    def _partners(self, a, b):
-        """Is particle b near particle a (a mesh neighbour, sewn, or sewn's neighbour)?"""
+    def _listed(self, start: ti.template(), flat: ti.template(), a, b):
+        """Is particle b in particle a's CSR list (start, flat)?"""
         found = False
-        for k in range(self.partner_start[a], self.partner_start[a + 1]):
-            if self.partner[k] == b:
+        for k in range(start[a], start[a + 1]):
+            if flat[k] == b:
                 found = True
         return found
 
     @ti.func
+    def _partners(self, a, b):
+        """Is particle b near particle a (sewn, a partner's partner, or their neighbour)?"""
+        return self._listed(self.partner_start, self.partner, a, b)
+
+    @ti.func
     def _edge_partners(self, a, b):
-        """Is particle b sewn to particle a, or to one of a's partners? (symmetric)"""
-        found = False
-        for k in range(self.ee_partner_start[a], self.ee_partner_start[a + 1]):
-            if self.ee_partner[k] == b:
-                found = True
-        return found
+        """The same for edge-edge pairs (the partners alone with NARROW_EDGE_EXCLUSION)."""
+        return self._listed(self.ee_partner_start, self.ee_partner, a, b)
 
     @ti.func
     def _excluded_vt(self, u, t):
