@@ -31,6 +31,7 @@ import time
 import numpy as np
 
 from sandbox import runtime
+from sandbox.precision import add_precision_flags
 
 # (tol_m_s, rel_tol, cg_tol) of the implicit cantilever runs: the defaults, then looser ones
 CANTILEVER_TOLS = [(1e-4, 0.0, 0.1), (1e-4, 0.0, 1e-3), (1e-3, 0.0, 0.1), (1e-4, 1e-2, 0.1)]
@@ -280,7 +281,7 @@ def garment():
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("sections", nargs="*", default=list(SECTIONS), choices=[*SECTIONS, *EXTRA, []])
-    runtime.add_precision_flags(ap)
+    add_precision_flags(ap)
     args = ap.parse_args()
     runtime.init("cpu", float64=args.float64)
     print(f"bench_implicit: {platform.machine()} {platform.processor() or 'cpu'}, python "

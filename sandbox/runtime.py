@@ -12,7 +12,7 @@ import logging
 import taichi as ti
 
 from sandbox.errors import SandboxError
-from sandbox.precision import DEFAULT_FLOAT64, add_precision_flags  # noqa: F401
+from sandbox.precision import DEFAULT_FLOAT64
 
 log = logging.getLogger(__name__)
 

@@ -27,6 +27,7 @@ from pathlib import Path
 from sandbox import runtime
 from sandbox.atomic import write_json, write_text
 from sandbox.errors import SandboxError
+from sandbox.precision import add_precision_flags
 from sandbox.validate import cases, stability
 from sandbox.validate.cases import INTEGRATORS, SHORT, CaseRun
 
@@ -215,7 +216,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--only", choices=["all", "error", "stability"], default="all",
                     help="run only one part (default: all)")  # fmt: skip
     ap.add_argument("--arch", default="cpu", choices=["cpu", "gpu"])
-    runtime.add_precision_flags(ap)
+    add_precision_flags(ap)
     ap.add_argument("--tiny", action="store_true", help=argparse.SUPPRESS)  # for the tests
     ap.add_argument(
         "--render", metavar="JSON", help="only rewrite the Markdown and the plot from a report.json"
