@@ -40,6 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
+from sandbox.collision.untangle import edge_length_pass, edge_lengths_setup, untangle_positions
 from sandbox.errors import SandboxError
 from sandbox.pattern.spec import rotation_matrix_xyz_deg
 
@@ -79,14 +80,8 @@ panels, measured from the torso axis, so that they do not cut through the bodice
 UNTANGLE_ROUNDS = 20
 """At most this many smoothing rounds of :func:`untangle` ..."""
 UNTANGLE_RINGS = 2
-"""... each over the vertices of the crossing triangles and this many rings around them ..."""
-UNTANGLE_SMOOTHING = 10
-"""... smoothed this many times (each step half-way to the neighbours' mean) ..."""
-UNTANGLE_RESTORE = 3
-"""... then given back their edge lengths by this many passes of :func:`relax_panel`'s step
-(smoothing alone shrinks triangles: the T-shirt's sleeve caps kept some at 1 % of their
-width), in the first half of the rounds; where that folds the panel again, the second half
-goes on from the fewest crossings without it."""
+"""... each over the vertices of the crossing triangles and this many rings around them
+(smoothing and edge-length steps: :mod:`sandbox.collision.untangle`)."""
 BODIES = ("torso", "arm_left", "arm_right", "leg_left", "leg_right")
 _SIDE_DIRS = {"front": (0.0, 0.0, 1.0), "back": (0.0, 0.0, -1.0), "left": (1.0, 0.0, 0.0),
               "right": (-1.0, 0.0, 0.0)}  # fmt: skip
@@ -492,52 +487,32 @@ def untangle(placed: dict, meshes: dict, body, clearance_m: dict,
     Pushing a fine mesh out of a crease (the armpit, where a sleeve cap meets the bodice)
     moves neighbouring vertices to different surfaces, and the panel folds through itself:
     a 1 cm T-shirt started with 74 crossing triangle pairs, and contact handling keeps a
-    start crossing for good. Each round takes the vertices of the crossing triangles and
-    :data:`UNTANGLE_RINGS` rings of neighbours, moves them :data:`UNTANGLE_SMOOTHING` steps
-    half-way to the mean of their neighbours (Laplacian smoothing, which unfolds), and
-    pushes them out to their panel's clearance again.
+    start crossing for good. :func:`sandbox.collision.untangle.untangle_positions` smooths
+    the crossing triangles and :data:`UNTANGLE_RINGS` rings of neighbours and pushes them
+    out to their panel's clearance again.
 
     Args:
         placed: panel name -> (n, 3) positions [m]. meshes: panel name -> mesh (its
             ``triangles``). body: :class:`PlacementBody`. clearance_m: panel name -> [m].
         rounds: at most this many rounds (default :data:`UNTANGLE_ROUNDS`).
     """
-    import scipy.sparse as sp
-
     names = list(placed)
-    sizes = [len(placed[n]) for n in names]
-    offsets = np.cumsum([0] + sizes)
+    offsets = np.cumsum([0] + [len(placed[n]) for n in names])
     x = np.vstack([placed[n] for n in names]).astype(float)
     tri = np.vstack([np.asarray(meshes[n].triangles) + offsets[k] for k, n in enumerate(names)])
-    n = len(x)
     uv = np.vstack([np.asarray(meshes[name].points, float) for name in names])
-    i, j, rest, count = _edge_lengths_setup(tri, uv, n)  # unique edges, count = degree
-    adj = sp.coo_matrix((np.ones(2 * len(i)), (np.r_[i, j], np.r_[j, i])), shape=(n, n)).tocsr()
-    from sandbox.collision.metrics import intersecting_pairs
 
-    pairs = intersecting_pairs(x, tri)
-    best, fewest = x.copy(), len(pairs)
-    rounds = UNTANGLE_ROUNDS if rounds is None else rounds
-    for k in range(rounds):
-        if len(pairs) == 0:
-            break
-        if k == rounds // 2 and fewest:  # the restoring refolds here: go on from the best
-            x, pairs = best.copy(), intersecting_pairs(best, tri)  # without it
-        mask = np.zeros(n, bool)
-        mask[tri[np.asarray(pairs).ravel()].ravel()] = True
-        for _ in range(UNTANGLE_RINGS):
-            mask |= adj @ mask.astype(float) > 0
-        for _ in range(UNTANGLE_SMOOTHING):
-            x[mask] = 0.5 * x[mask] + 0.5 * (adj @ x)[mask] / count[mask]
-        for _ in range(UNTANGLE_RESTORE if k < rounds // 2 else 0):  # triangle shapes back
-            x[mask] += _edge_length_pass(x, i, j, rest, count)[mask]
+    def push_out(y, mask):
+        y = y.copy()
         for p, name in enumerate(names):
             sl = slice(offsets[p], offsets[p + 1])
             if mask[sl].any():
-                x[sl], _ = body.push_out(x[sl], clearance_m[name])
-        pairs = intersecting_pairs(x, tri)
-        if len(pairs) < fewest:
-            best, fewest = x.copy(), len(pairs)
+                y[sl], _ = body.push_out(y[sl], clearance_m[name])
+        return y
+
+    best, _, _, _ = untangle_positions(
+        x, tri, uv, push_out, rounds=UNTANGLE_ROUNDS if rounds is None else rounds,
+        rings=UNTANGLE_RINGS)  # fmt: skip
     return {name: best[offsets[k] : offsets[k + 1]] for k, name in enumerate(names)}
 
 
@@ -584,34 +559,11 @@ def relax_panel(x: np.ndarray, triangles: np.ndarray, rest_xy: np.ndarray,
     """
     x0 = np.asarray(x, float)
     x = x0.copy()
-    i, j, rest, count = _edge_lengths_setup(triangles, rest_xy, len(x))
+    i, j, rest, count = edge_lengths_setup(triangles, rest_xy, len(x))
     for _ in range(iterations):
-        x += _edge_length_pass(x, i, j, rest, count)
+        x += edge_length_pass(x, i, j, rest, count)
         x += RELAX_HOLD * (x0 - x)
     return x
-
-
-def _edge_lengths_setup(triangles: np.ndarray, rest_xy: np.ndarray, n: int):
-    """Unique edges (i, j) of a mesh, their pattern lengths and each vertex's edge count."""
-    tri = np.asarray(triangles, np.int64)
-    e = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
-    e = np.unique(e, axis=0)
-    i, j = e[:, 0], e[:, 1]
-    rest = np.linalg.norm(rest_xy[j] - rest_xy[i], axis=1)
-    count = np.bincount(np.concatenate([i, j]), minlength=n).astype(float)[:, None]
-    return i, j, rest, np.maximum(count, 1.0)
-
-
-def _edge_length_pass(x, i, j, rest, count) -> np.ndarray:
-    """One Jacobi pass: the move (n, 3) [m] that takes both ends of every edge half-way to
-    its rest length, averaged per vertex."""
-    d = x[j] - x[i]
-    length = np.maximum(np.linalg.norm(d, axis=1), 1e-12)
-    c = (0.5 * (length - rest) / length)[:, None] * d  # move i by +c, j by -c
-    dx = np.zeros_like(x)
-    for k in range(3):
-        dx[:, k] = np.bincount(i, c[:, k], len(x)) - np.bincount(j, c[:, k], len(x))
-    return dx / count
 
 
 def _lift_over_torso(body, frame, out, torso_panels, limb_panels, pattern) -> None:
