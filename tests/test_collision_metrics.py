@@ -15,6 +15,7 @@ from sandbox.collision.metrics import (
     intersecting_pairs,
     intersecting_pairs_between,
     penetration_metrics,
+    seam_joined_pairs,
 )
 from sandbox.errors import SandboxError
 
@@ -138,6 +139,20 @@ def test_exclusions():
     assert count_intersecting_pairs(v, t, exclude_vertex_pairs=[[0, 4]]) == 0
     with pytest.raises(SandboxError, match="exclude_vertex_pairs"):
         count_intersecting_pairs(v, t, exclude_vertex_pairs=[[0, 99]])
+
+
+def test_seam_joined_points_are_partners_and_partners_partners():
+    # a junction: 0 (front) sewn to 1 (back), 1 sewn to 2 (sleeve); a lone seam 5-6
+    joined = seam_joined_pairs([[0, 1], [2, 1], [5, 6], [3, 3]], 8)
+    assert joined.tolist() == [[0, 1], [0, 2], [1, 2], [5, 6]]
+    assert seam_joined_pairs(None).shape == (0, 2)
+    # the crossing quads sewn 7-8 and 8-1 (vertex 8 of a third piece): 1 and 7 are one
+    # point, so triangles 0 and 3 only touch there, as with a shared vertex
+    va, ta, vb, tb = crossing_quads()
+    v, t = np.vstack([va, vb, [[5.0, 5.0, 5.0]]]), np.vstack([ta, tb + 4])
+    assert count_intersecting_pairs(v, t, exclude_vertex_pairs=[[7, 8], [8, 1]]) == 3
+    joined = seam_joined_pairs([[7, 8], [8, 1]], len(v))
+    assert intersecting_pairs(v, t, exclude_vertex_pairs=joined).tolist() == [[1, 2], [1, 3]]
 
 
 TRI = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float)

@@ -565,6 +565,27 @@ def _member(keys: np.ndarray, table: np.ndarray) -> np.ndarray:
     return table[np.minimum(idx, len(table) - 1)] == keys
 
 
+def seam_joined_pairs(seam_pairs, vertex_count: int | None = None) -> np.ndarray:
+    """Vertex pairs (p, 2), i < j, that a seam joins into one point of the garment: the
+    sewn pairs and, where three panels meet (an underarm: front, back and sleeve), the
+    partners of partners. The metrics count two triangles that hold such a pair as
+    touching at that point, as two triangles that share a vertex (the self-collider leaves
+    the same pairs free, :meth:`~sandbox.collision.self_contact.SelfCollider.set_seam_partners`).
+    """
+    import scipy.sparse as sp
+
+    if seam_pairs is None or len(seam_pairs) == 0:
+        return np.zeros((0, 2), np.int64)
+    p = np.asarray(seam_pairs, np.int64).reshape(-1, 2)
+    p = p[p[:, 0] != p[:, 1]]
+    n = int(vertex_count) if vertex_count is not None else int(p.max()) + 1
+    a = sp.coo_matrix((np.ones(2 * len(p)), (np.r_[p[:, 0], p[:, 1]], np.r_[p[:, 1], p[:, 0]])),
+                      shape=(n, n)).tocsr()  # fmt: skip
+    joined = (a + a @ a).tocoo()
+    keep = joined.row < joined.col
+    return np.unique(np.stack([joined.row[keep], joined.col[keep]], 1).astype(np.int64), axis=0)
+
+
 def intersecting_pairs(
     vertices,
     triangles,

@@ -76,14 +76,15 @@ def untangle_positions(
         rest_xy: (n, 2) pattern coordinates [m]: each edge's rest length.
         push_out: ``push_out(x, mask) -> x``: moves the masked vertices out of the body
             (None: no body).
-        seam_pairs: (s, 2) sewn vertex pairs: not counted as crossing (as the metrics), and
-            smoothed together like mesh edges.
+        seam_pairs: (s, 2) sewn vertex pairs: smoothed together like mesh edges; triangles
+            joined through them (:func:`~sandbox.collision.metrics.seam_joined_pairs`) are
+            not crossings, as in the metrics.
         rounds, rings: see :data:`ROUNDS`, :data:`RINGS`.
     Returns ``(x_new (n, 3), pairs_before, pairs_after, moved (n,) bool)``.
     """
     import scipy.sparse as sp
 
-    from sandbox.collision.metrics import intersecting_pairs
+    from sandbox.collision.metrics import intersecting_pairs, seam_joined_pairs
 
     x = np.array(x, float)
     tri = np.asarray(triangles, np.int64)
@@ -97,8 +98,10 @@ def untangle_positions(
     adj.data[:] = 1.0  # a seam along a mesh edge counts once
     degree = np.maximum(np.asarray(adj.sum(1)), 1.0)
 
+    joined = seam_joined_pairs(seams, n) if len(seams) else None
+
     def crossing():
-        return intersecting_pairs(x, tri, exclude_vertex_pairs=seams if len(seams) else None)
+        return intersecting_pairs(x, tri, exclude_vertex_pairs=joined)
 
     pairs = crossing()
     before = len(pairs)

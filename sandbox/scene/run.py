@@ -145,12 +145,16 @@ def contact_metrics(model, x: np.ndarray) -> dict:
 
     ``penetration_max_m`` and ``vertices_inside_body`` over the closed colliders (None
     without one), and ``intersecting_triangle_pairs`` of the cloth by an exact
-    triangle-triangle test (pairs sharing a vertex or joined by a seam excluded).
+    triangle-triangle test: pairs sharing a vertex or a seam-joined point are excluded
+    (:func:`~sandbox.collision.metrics.seam_joined_pairs`: sewn pairs and, at a junction of
+    three panels, partners' partners); ``intersecting_triangle_pairs_sewn_pairs_only``
+    excludes only the sewn pairs themselves (the count until 3 Dec 2026).
     """
     from sandbox.collision.metrics import (
         body_inside_check,
         count_intersecting_pairs,
         penetration_metrics,
+        seam_joined_pairs,
     )
 
     out = {"penetration_max_m": None, "vertices_inside_body": None}
@@ -164,9 +168,14 @@ def contact_metrics(model, x: np.ndarray) -> dict:
             depth = max(depth, m["penetration_max_m"])
             inside += m["vertices_inside_body"]
         out.update(penetration_max_m=depth, vertices_inside_body=inside)
+    joined = seam_joined_pairs(model.seam_pairs_np, model.particle_count)
     out["intersecting_triangle_pairs"] = count_intersecting_pairs(
-        x, model.tri_indices_np, exclude_vertex_pairs=model.seam_pairs_np
+        x, model.tri_indices_np, exclude_vertex_pairs=joined
     )
+    if model.seam_count:  # the count before junctions were one point (until 3 Dec 2026)
+        out["intersecting_triangle_pairs_sewn_pairs_only"] = count_intersecting_pairs(
+            x, model.tri_indices_np, exclude_vertex_pairs=model.seam_pairs_np
+        )
     return out
 
 

@@ -1,0 +1,70 @@
+"""Untangling crossing cloth (sandbox.collision.untangle): a spike through a sheet is
+smoothed away, sewn pairs are not crossings, a clean mesh is left alone."""
+
+import numpy as np
+
+from sandbox.collision.metrics import count_intersecting_pairs
+from sandbox.collision.untangle import untangle_positions
+from sandbox.pattern.mesh2d import mesh_grid
+
+
+def _two_sheets(spike_m: float):
+    """Sheet A (8 x 8 cm, y = 0) and sheet B (4 x 4 cm, y = 5 mm above A's middle) with
+    B's middle vertex pulled down to y = -spike_m (through A when spike_m > 0)."""
+    pa, ta = mesh_grid(0.08, 0.08, 0.01)
+    pb, tb = mesh_grid(0.04, 0.04, 0.01)
+    pb = pb + 0.02
+    xa = np.c_[pa[:, 0], np.zeros(len(pa)), pa[:, 1]]
+    xb = np.c_[pb[:, 0], np.full(len(pb), 0.005), pb[:, 1]]
+    mid = int(np.argmin(np.linalg.norm(pb - 0.04, axis=1)))
+    xb[mid, 1] = -spike_m
+    x = np.vstack([xa, xb])
+    tri = np.vstack([ta, tb + len(pa)])
+    uv = np.vstack([pa, pb])
+    return x, tri, uv, len(pa) + mid
+
+
+def test_a_spike_through_a_sheet_is_smoothed_away():
+    x, tri, uv, spike = _two_sheets(0.004)
+    assert count_intersecting_pairs(x, tri) > 0
+    new, before, after, moved = untangle_positions(x, tri, uv)
+    assert before > 0 and after == 0
+    assert count_intersecting_pairs(new, tri) == 0
+    assert moved[spike]
+    assert new[spike, 1] > 0.0  # back above sheet A
+    # sheet A was flat and stays so; nothing far from the spike moved
+    n_a = len(x) - 25
+    assert np.allclose(new[:n_a, 1], 0.0, atol=1e-12)
+    far = np.linalg.norm(x[:, [0, 2]] - x[spike, [0, 2]], axis=1) > 0.035
+    assert np.allclose(new[far], x[far])
+
+
+def test_clean_cloth_is_left_alone_and_sewn_pairs_are_not_crossings():
+    x, tri, uv, _ = _two_sheets(-0.005)  # spike up: no crossing
+    new, before, after, moved = untangle_positions(x, tri, uv)
+    assert (before, after, int(moved.sum())) == (0, 0, 0)
+    assert np.array_equal(new, x)
+    # the spike through A, sewn to A's vertex under it: their triangles do not count
+    x, tri, uv, spike = _two_sheets(0.004)
+    under = int(np.argmin(np.linalg.norm(x[:81] - x[spike] * [1, 0, 1], axis=1)))
+    sewn = np.array([[under, spike]])
+    crossing = count_intersecting_pairs(x, tri)
+    left = count_intersecting_pairs(x, tri, exclude_vertex_pairs=sewn)
+    assert left < crossing
+    _, before, _, _ = untangle_positions(x, tri, uv, seam_pairs=sewn)
+    assert before == left
+
+
+def test_the_push_out_is_applied_to_the_moved_vertices_only():
+    x, tri, uv, spike = _two_sheets(0.004)
+    calls = []
+
+    def push_out(y, mask):
+        calls.append(int(mask.sum()))
+        y = y.copy()
+        y[mask, 1] = np.maximum(y[mask, 1], -1e-3)  # a floor 1 mm below sheet A
+        return y
+
+    new, _, after, moved = untangle_positions(x, tri, uv, push_out)
+    assert after == 0 and calls and max(calls) == int(moved.sum())
+    assert new[:, 1].min() >= -1e-3
