@@ -6,8 +6,9 @@ prints one line of JSON: vertices, steps, dt, sewing and draping time (simulated
 the sewing step and cloth softening, compile time, convergence, seam gap, contact counts,
 ease, hem rise, folded area, acceptance. ``--sew-max-dt-ms 0`` sews without softening a stiff cloth
 (the code before 2 Dec 2026), for comparison with the default (``SEW_MAX_DT_S``);
-``--sew-gravity 1`` sews tops and dresses under full gravity (default 0.3). ``--size 8 12 18`` drapes each
-garment on each size; ``--table`` ends with a Markdown table of the acceptance checks.
+``--sew-gravity 1`` sews tops and dresses under full gravity (default 0.3). ``--size 8 12
+18`` drapes each garment on each size; ``--table`` ends with a Markdown table of the
+acceptance checks.
 """
 
 from __future__ import annotations
