@@ -68,3 +68,41 @@ def test_the_push_out_is_applied_to_the_moved_vertices_only():
     new, _, after, moved = untangle_positions(x, tri, uv, push_out)
     assert after == 0 and calls and max(calls) == int(moved.sum())
     assert new[:, 1].min() >= -1e-3
+
+
+class _State:
+    def __init__(self, x, v):
+        self.x, self.v = x.copy(), v.copy()
+
+    def positions(self):
+        return self.x.copy()
+
+    def velocities(self):
+        return self.v.copy()
+
+    def set(self, x, v=None):
+        self.x, self.v = np.array(x), np.array(v)
+
+
+def test_the_drape_untangles_its_state_in_place_and_stops_the_moved_vertices():
+    """``untangle_state`` (the drape's pass after sewing): positions fixed in the scene's
+    state, the moved vertices' velocities zeroed, the others' kept, a record returned."""
+    from types import SimpleNamespace
+
+    from sandbox.scene.drape import untangle_state
+
+    x, tri, uv, spike = _two_sheets(0.004)
+    v = np.full_like(x, 0.1)
+    model = SimpleNamespace(tri_indices_np=tri, rest_uv_np=uv, seam_pairs_np=None)
+    scene = SimpleNamespace(model=model, state=_State(x, v), placement_body=None)
+    rec = untangle_state(scene, "after sewing")
+    assert rec["when"] == "after sewing" and rec["pairs_before"] > 0 and rec["pairs_after"] == 0
+    assert count_intersecting_pairs(scene.state.x, tri) == 0
+    moved = np.any(scene.state.x != x, axis=1)
+    assert rec["vertices_moved"] >= moved.sum() > 0
+    assert 0.004 < rec["largest_move_m"] < 0.015  # the spike is 9 mm deep
+    assert np.all(scene.state.v[moved] == 0.0)
+    assert np.all(scene.state.v[~np.any(scene.state.v == 0.0, axis=1)] == 0.1)
+    # nothing to do: the state is left as it is
+    again = untangle_state(scene, "after the drape")
+    assert again["pairs_before"] == again["pairs_after"] == again["vertices_moved"] == 0
