@@ -148,7 +148,7 @@ def contact_metrics(model, x: np.ndarray) -> dict:
     triangle-triangle test: pairs sharing a vertex or a seam-joined point are excluded
     (:func:`~sandbox.collision.metrics.seam_joined_pairs`: sewn pairs and, at a junction of
     three panels, partners' partners); ``intersecting_triangle_pairs_sewn_pairs_only``
-    excludes only the sewn pairs themselves (the count until 3 Dec 2026).
+    excludes only the sewn pairs themselves (the count until the fifteenth session, 2 Dec 2026).
     """
     from sandbox.collision.metrics import (
         body_inside_check,
@@ -172,7 +172,7 @@ def contact_metrics(model, x: np.ndarray) -> dict:
     out["intersecting_triangle_pairs"] = count_intersecting_pairs(
         x, model.tri_indices_np, exclude_vertex_pairs=joined
     )
-    if model.seam_count:  # the count before junctions were one point (until 3 Dec 2026)
+    if model.seam_count:  # the count before junctions were one point (until the fifteenth session)
         out["intersecting_triangle_pairs_sewn_pairs_only"] = count_intersecting_pairs(
             x, model.tri_indices_np, exclude_vertex_pairs=model.seam_pairs_np
         )
