@@ -74,9 +74,9 @@ ends folded up (3.9 % of its area turned over); with full gravity the T-shirt's 
 rises 1.0 cm and the blouse hangs straight (0.1 %), but the weight holds the seams open
 against their 5 % sewing stiffness: the tank top's were still 46 mm open at the 1.5 s
 limit (12 mm without) and ended 3.9 mm (1.4 mm), failing the seam-gap acceptance.
-From the fifteenth session (2 Dec 2026) 0.3: the 1 cm blouse (silk) sewn without gravity ended with its back
-folded at the waist (2.4 % of its area turned over, 1 crossing pair); with 0.3 it hangs
-straight (0.8 %) and meets the acceptance (docs/drape.md, fifteenth session)."""
+From the fifteenth session (2 Dec 2026) 0.3: the 1 cm blouse (silk) sewn without gravity
+ended with its back folded at the waist (2.4 % of its area turned over, 1 crossing pair);
+with 0.3 it hangs straight (0.8 %) and meets the acceptance (docs/drape.md)."""
 SEW_SPEED_LIMIT_M_S = 3.0
 """While seams close, no particle keeps a speed above this [m/s] (the explicit solver's
 ``speed_limit``; 0: none); off again for the ramp. A seam spring pulls its two ends
