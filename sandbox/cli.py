@@ -241,6 +241,13 @@ def cmd_drape(args) -> int:
               f"{m['vertices_inside_body']}, intersecting triangle pairs "
               f"{m['intersecting_triangle_pairs']}; ease bust {cm(m['ease_bust_cm'])}, "
               f"waist {cm(m['ease_waist_cm'])}, hip {cm(m['ease_hip_cm'])}")  # fmt: skip
+        for r in m.get("untangle") or []:
+            if r["pairs_before"]:
+                print(f"untangled {r['when']}: {r['pairs_before']} -> {r['pairs_after']} "
+                      f"crossing triangle pairs ({r['vertices_moved']} vertices moved, at most "
+                      f"{r['largest_move_m'] * 1e3:.1f} mm)")  # fmt: skip
+        verdict = "meets" if m.get("meets_acceptance") else "does not meet"
+        print(f"{verdict} the garments issue's acceptance (meets_acceptance in metrics.json)")
         print("wrote:")
         for path in res.paths.values():
             print(f"  {path}")
