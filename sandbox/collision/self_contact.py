@@ -243,26 +243,18 @@ class SelfCollider:
         each other. Called at construction and whenever the seams change
         (set_seam_springs); the candidate list is rebuilt at the next step.
         """
+        from sandbox.collision.metrics import seam_joined_pairs
+
         n = self.model.particle_count
-        near = [set() for _ in range(n)]
-        sewn = [set() for _ in range(n)]
-        if seam_pairs is not None and len(seam_pairs):
-            for a, b in np.asarray(seam_pairs, np.int64):
-                sewn[a].add(int(b))
-                sewn[b].add(int(a))
-            if self._ring is None:
-                self._ring = [set() for _ in range(n)]
-                for a, b in self.edges_np:
-                    self._ring[a].add(b)
-                    self._ring[b].add(a)
         # a's partners and its partners' partners: at a junction of three panels (an
         # underarm) the third panel's vertex is sewn to a only through the second's
-        joined = [set().union(s, *(sewn[b] for b in s)) - {a} for a, s in enumerate(sewn)]
-        if seam_pairs is not None and len(seam_pairs):
-            ring = self._ring
-            for a, s in enumerate(joined):
-                for b in s:
-                    near[a].update({b} | ring[b] if neighbours else {b})
+        j = seam_joined_pairs(seam_pairs, n)
+        joined = _symmetric(j, n)
+        near = joined
+        if neighbours and len(j):
+            if self._ring is None:  # mesh neighbours
+                self._ring = _symmetric(self.edges_np, n)
+            near = joined + joined @ self._ring
         edge_near = joined if NARROW_EDGE_EXCLUSION else near
         self._store_partners(near, self.partner_start, self.partner)
         self._store_partners(edge_near, self.ee_partner_start, self.ee_partner)
@@ -270,12 +262,14 @@ class SelfCollider:
             self.needs_build[None] = 1
 
     @staticmethod
-    def _store_partners(near: list, start_field, flat_field) -> None:
-        """Each particle's set of partners, as CSR into two fields."""
-        partners = [sorted(s) for s in near]
-        start = np.zeros(len(near) + 1, np.int64)
-        start[1:] = np.cumsum([len(p) for p in partners])
-        flat = np.array([q for p in partners for q in p], np.int64)
+    def _store_partners(near, start_field, flat_field) -> None:
+        """Each particle's partners (a sparse (n, n) matrix's pattern), as CSR into two
+        fields."""
+        near = near.tocsr()
+        near.sum_duplicates()
+        near.sort_indices()
+        start = near.indptr.astype(np.int64)
+        flat = near.indices.astype(np.int64)
         if len(flat) > flat_field.shape[0]:
             raise SandboxError(f"self-collision: {len(flat)} seam exclusions exceed the room "
                                f"for {flat_field.shape[0]}")  # fmt: skip
@@ -1297,3 +1291,12 @@ def _rigid_velocities(x, v, m, inv_m, zone):
     out = vc[z] + np.cross(w[z], r)
     out[(np.bincount(z, inv_m == 0, nz) > 0)[z]] = 0.0
     return out
+
+
+def _symmetric(pairs, n: int):
+    """The symmetric (n, n) sparse pattern of vertex pairs (k, 2)."""
+    import scipy.sparse as sp
+
+    p = np.asarray(pairs, np.int64).reshape(-1, 2)
+    rows, cols = np.r_[p[:, 0], p[:, 1]], np.r_[p[:, 1], p[:, 0]]
+    return sp.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
