@@ -24,7 +24,7 @@ from sandbox.precision import add_precision_flags
 ROOT = Path(__file__).resolve().parents[1]
 KEYS = ("vertex_count", "fabric", "dt_s", "steps", "sew_sim_time_s", "sew_wall_time_s",
         "sew_frames", "sew_gap_m", "sew_dt_s", "sew_cloth_stiffness_factor",
-        "sew_gravity_fraction", "sew_stalled", "sim_time_s",
+        "sew_gravity_fraction", "sew_stalled", "strain_damping_s", "sim_time_s",
         "wall_time_s", "total_wall_time_s", "compile_time_s", "build_time_s",
         "converged", "stop_reason", "max_displacement_m", "mean_displacement_m",
         "seam_gap_max_m", "vertices_inside_body",
@@ -87,6 +87,13 @@ def main(argv=None) -> int:
         "default: the scene's own)",
     )
     p.add_argument(
+        "--strain-damping",
+        type=float,
+        default=None,
+        help="the membrane's strain-rate damping [s] (sandbox.scene.drape."
+        "DRAPE_STRAIN_DAMPING_S, default 0: off), e.g. 2e-6",
+    )
+    p.add_argument(
         "--table",
         action="store_true",
         help="after the JSON lines, a Markdown table of the acceptance checks",
@@ -105,6 +112,8 @@ def main(argv=None) -> int:
         drape_module.SEW_GRAVITY_TOPS = args.sew_gravity
     if args.sew_friction is not None:
         drape_module.SEW_FRICTION = args.sew_friction
+    if args.strain_damping is not None:
+        drape_module.DRAPE_STRAIN_DAMPING_S = args.strain_damping
 
     runtime.init("cpu", float64=args.float64)
     garments = args.garments or (

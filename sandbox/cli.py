@@ -170,6 +170,9 @@ def _add_drape_parsers(sub) -> None:
                    default="symplectic_euler",
                    help="symplectic_euler (the paper's Eq. 2, default) or implicit_euler "
                    "(backward Euler at 1/60 s steps, docs/implicit.md)")  # fmt: skip
+    p.add_argument("--strain-damping", type=float, default=None, metavar="S",
+                   help="the membrane's strain-rate damping in s (default 0: off; 2e-6 settles "
+                   "stiff fabrics' contact chatter, docs/drape.md)")  # fmt: skip
     p.add_argument("--out", type=Path, default=None, help="output directory (created)")
     p.add_argument("--no-render", action="store_true", help="skip the PNGs")
     _add_runtime_flags(p)
@@ -219,6 +222,10 @@ def cmd_drape(args) -> int:
         if not args.time_limit > 0:
             raise SandboxError(f"--time-limit {args.time_limit}: must be positive")
         options["time_limit_s"] = args.time_limit
+    if args.strain_damping is not None:
+        if not args.strain_damping >= 0:
+            raise SandboxError(f"--strain-damping {args.strain_damping}: must be >= 0 s")
+        options["strain_damping_s"] = args.strain_damping
     runtime.init(args.arch, float64=args.float64)
     res = drape(args.garment, size=args.size, measurements=measurements or None,
                 fabric=args.fabric, out_dir=args.out, edge_length_m=args.edge_cm / 100.0,

@@ -159,3 +159,73 @@ def test_zero_force_at_rest_and_under_rigid_motion():
         f = solver.compute_forces(state, control)
         assert np.abs(f).max() < 1e-10
         assert abs(solver.internal_energy(state)) < 1e-16
+
+
+def _dissipation(model, x, v, beta):
+    """D = β a/2 Σ (E_u Ṡ_u² + E_v Ṡ_v² + E_s (2θ̇_s)²), in numpy, for the test below."""
+    total = 0.0
+    for t, (i0, i1, i2) in enumerate(model.tri_indices_np):
+        r = model.tri_rest_inv_np[t]
+        e_u, e_v, e_s = model.tri_stiffness_np[t]
+
+        def columns(p, r=r, i0=i0, i1=i1, i2=i2):
+            d1, d2 = p[i1] - p[i0], p[i2] - p[i0]
+            return r[0, 0] * d1 + r[1, 0] * d2, r[0, 1] * d1 + r[1, 1] * d2
+
+        f_u, f_v = columns(x)
+        r_u, r_v = columns(v)
+        s_u, s_v = np.linalg.norm(f_u), np.linalg.norm(f_v)
+        c = f_u @ f_v / (s_u * s_v)
+        # rates by the chain rule: Ṡ = d/dε S(F + ε Ḟ) at ε = 0, exactly
+        eps = 1e-7
+
+        def strains(a, b):
+            su, sv = np.linalg.norm(a), np.linalg.norm(b)
+            return su, sv, math.asin(np.clip(a @ b / (su * sv), -1, 1))
+
+        p = strains(f_u + eps * r_u, f_v + eps * r_v)
+        m = strains(f_u - eps * r_u, f_v - eps * r_v)
+        du, dv, dsh = ((p[k] - m[k]) / (2 * eps) for k in range(3))
+        assert abs(c) < 1
+        total += 0.5 * beta * model.tri_rest_area_np[t] * (e_u * du**2 + e_v * dv**2 + e_s * dsh**2)
+    return total
+
+
+def test_strain_rate_damping_is_the_dissipation_gradient_and_spares_rigid_motion():
+    """The membrane's strain-rate damping: f = −∂D/∂v (finite differences), its power
+    −2D ≤ 0, and no force for a rigid motion (translation + rotation)."""
+    uv, tris, x = random_patch(7)
+    model = make_model(uv, tris, stiffness=[120.0, 45.0, 7.0])
+    solver = SymplecticEulerSolver(model)
+    state = model.state()
+    control = model.control(gravity=(0, 0, 0))
+    v = RNG.normal(0, 0.05, x.shape)
+    beta = 2e-6
+    state.set(x, v)
+    f0 = solver.compute_forces(state, control)
+    model.strain_damping_s[None] = beta
+    f_d = solver.compute_forces(state, control) - f0
+    grad = np.zeros_like(v)
+    h = 1e-4
+    for i in range(v.shape[0]):
+        for d in range(3):
+            vp, vm = v.copy(), v.copy()
+            vp[i, d] += h
+            vm[i, d] -= h
+            grad[i, d] = (_dissipation(model, x, vp, beta) - _dissipation(model, x, vm, beta)) / (
+                2 * h
+            )
+    scale = np.abs(grad).max()
+    assert scale > 0
+    np.testing.assert_allclose(f_d, -grad, rtol=0, atol=1e-5 * scale)
+    power = float((f_d * v).sum())
+    assert power < 0
+    assert power == pytest.approx(-2 * _dissipation(model, x, v, beta), rel=1e-5)
+    omega = np.array([0.3, -1.1, 0.7])
+    rigid = np.cross(omega, x) + np.array([0.2, 0.0, -0.4])
+    state.set(x, rigid)
+    f_r = solver.compute_forces(state, control)
+    model.strain_damping_s[None] = 0.0
+    np.testing.assert_allclose(
+        f_r, solver.compute_forces(state, control), rtol=0, atol=1e-9 * scale
+    )

@@ -111,6 +111,9 @@ class Model:
         self.tri_rest_inv = ti.Matrix.field(2, 2, float, shape=max(1, m))
         self.tri_rest_area = ti.field(float, shape=max(1, m))
         self.tri_stiffness = ti.Vector.field(3, float, shape=max(1, m))
+        self.strain_damping_s = ti.field(float, shape=())
+        """Strain-rate damping β [s] of the membrane (:func:`~sandbox.sim.forces.
+        membrane_damping_gradient`; 0 = off, the default). A 0-D field: set it any time."""
         inv_mass = np.where(pinned, 0.0, 1.0 / np.maximum(mass, 1e-30))
         if n:
             self.particle_mass.from_numpy(_f(mass))

@@ -142,7 +142,7 @@ class SymplecticEulerSolver:
         v_out: ti.template(), gravity: ti.template(), damping: ti.template(), dt: float,
         index: ti.i32,
     ):  # fmt: skip
-        self._element_forces(x_in)
+        self._element_forces(x_in, v_in)
         self._kick_drift(x_in, v_in, x_out, v_out, gravity, damping, dt, index)
 
     @ti.kernel
@@ -152,7 +152,7 @@ class SymplecticEulerSolver:
     ):  # fmt: skip
         ti.loop_config(serialize=True)
         for k in range(steps):
-            self._element_forces(x)
+            self._element_forces(x, v)
             self._kick_drift(x, v, x, v, gravity, damping, dt, first_index + k)
 
     @ti.kernel
@@ -162,7 +162,7 @@ class SymplecticEulerSolver:
     ) -> ti.i32:  # fmt: skip
         """Forces and v(t+dt) with the bodies, then self-collision's ``prepare``: returns
         whether its list needs a rebuild (1) or a refresh (2)."""
-        self._element_forces(x_in)
+        self._element_forces(x_in, v_in)
         self._kick(x_in, v_in, v_out, gravity, damping, dt)
         self.self_collider.prepare(x_in, v_out, dt)
         return self.self_collider.needs_build[None]
@@ -190,7 +190,7 @@ class SymplecticEulerSolver:
     def _forces_kernel(
         self, x: ti.template(), v: ti.template(), gravity: ti.template(), damping: ti.template()
     ):
-        self._element_forces(x)
+        self._element_forces(x, v)
         for i in range(self.model.particle_count):
             m = self.model.particle_mass[i]
             f = self._gathered_force(i) + m * gravity[None] - damping[None] * m * v[i]
@@ -218,21 +218,30 @@ class SymplecticEulerSolver:
 
     # ------------------------------------------------------------------ per-step pieces
     @ti.func
-    def _element_forces(self, x):
-        self._membrane_forces(x)
+    def _element_forces(self, x, v):
+        self._membrane_forces(x, v)
         self._bending_forces(x)
         self._seam_forces(x)
 
     @ti.func
-    def _membrane_forces(self, x):
-        """Eq. 6-8: membrane forces of each triangle, into its three corner slots."""
+    def _membrane_forces(self, x, v):
+        """Eq. 6-8: membrane forces of each triangle, into its three corner slots, plus its
+        strain-rate damping where ``model.strain_damping_s`` > 0."""
         m = self.model
+        beta = m.strain_damping_s[None]
         for t in range(m.tri_count):
             i = m.tri_indices[t]
             r = m.tri_rest_inv[t]
             f_u, f_v = forces.deformation_columns(x[i[0]], x[i[1]], x[i[2]], r)
             k = m.tri_stiffness[t]
             g_u, g_v = forces.eq8_membrane_gradient(f_u, f_v, m.tri_rest_area[t], k[0], k[1], k[2])
+            if beta > 0.0:
+                r_u, r_v = forces.deformation_columns(v[i[0]], v[i[1]], v[i[2]], r)
+                d_u, d_v = forces.membrane_damping_gradient(
+                    f_u, f_v, r_u, r_v, m.tri_rest_area[t], k[0], k[1], k[2], beta
+                )
+                g_u += d_u
+                g_v += d_v
             # F_u = c_u0 x0 + c_u1 x1 + c_u2 x2 with c_u1 = r00, c_u2 = r10, c_u0 = -(r00 + r10)
             f1 = -(r[0, 0] * g_u + r[0, 1] * g_v)
             f2 = -(r[1, 0] * g_u + r[1, 1] * g_v)
