@@ -91,7 +91,7 @@ def main(argv=None) -> int:
         type=float,
         default=None,
         help="the membrane's strain-rate damping [s] (sandbox.scene.drape."
-        "DRAPE_STRAIN_DAMPING_S, default 0: off), e.g. 2e-6",
+        "DRAPE_STRAIN_DAMPING_S, default 2e-6; 0: off)",
     )
     p.add_argument(
         "--table",

@@ -125,16 +125,20 @@ UNTANGLE_SETTLE_S = 0.2
 UNTANGLE_CLEARANCE_M = 3e-3
 """Untangled vertices are pushed out to this distance from the body [m] (1.5 x the contact
 thickness)."""
-DRAPE_STRAIN_DAMPING_S = 0.0
+DRAPE_STRAIN_DAMPING_S = 2e-6
 """Strain-rate damping β [s] of the drape's membrane (``Model.strain_damping_s``,
-:func:`~sandbox.sim.forces.membrane_damping_gradient`); 0: off (the default until every
-garment has been re-run with it). Body contact keeps stiff cloth at 1 cm chattering: the
-long-sleeve shirt (cotton) restarted at rest from a drape's state kept a sum of squared
-speeds of ~2,000 m²/s² (0.4 m/s per vertex, 0.22 mm mean motion per frame) whatever the step
-(dt/2 alike) and with self-collision off; with the body moved away it decayed at the
-mass damping's rate, with frictionless contact it grew. β = 1e-6 s cut it to ~200-350 and
-β = 3e-6 s to ~70-110, the mean motion per frame after 0.3 s from 0.31 to 0.11 and 0.10 mm
-(ad-hoc script, 3 Dec 2026; docs/drape.md). The explicit step shrinks by √(1+ζ²) − ζ,
+:func:`~sandbox.sim.forces.membrane_damping_gradient`; 0: off, as before the sixteenth
+session). A mode of angular frequency ω decays at about β ω²/2 [1/s]: 10-20 /s for the
+contact chatter below, 1e-4 /s for a garment swinging at 10 rad/s.
+
+Body contact keeps stiff cloth at 1 cm chattering: the long-sleeve shirt (cotton) restarted
+at rest from a drape's state kept a sum of squared speeds of ~2,000 m²/s² (0.4 m/s per
+vertex, 0.22 mm mean motion per frame) whatever the step (dt/2 alike) and with
+self-collision off; with the body moved away it decayed at the mass damping's rate, with
+frictionless contact it grew. β = 1e-6 s cut it to ~200-350 and β = 3e-6 s to ~70-110, the
+mean motion per frame after 0.3 s from 0.31 to 0.11 and 0.10 mm (ad-hoc script, 3 Dec
+2026); with 2e-6 the 1 cm long-sleeve shirt met the stop rule in 686 s where it was still
+moving at the 30 min limit (docs/drape.md). The explicit step shrinks by √(1+ζ²) − ζ,
 ζ = β / (the undamped stable step)."""
 DRAPE_MIN_TIME_S = 0.5
 DRAPE_TIME_LIMIT_S = 8.0
