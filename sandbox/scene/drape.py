@@ -136,7 +136,7 @@ at rest from a drape's state kept a sum of squared speeds of ~2,000 m²/s² (0.4
 vertex, 0.22 mm mean motion per frame) whatever the step (dt/2 alike) and with
 self-collision off; with the body moved away it decayed at the mass damping's rate, with
 frictionless contact it grew. β = 1e-6 s cut it to ~200-350 and β = 3e-6 s to ~70-110, the
-mean motion per frame after 0.3 s from 0.31 to 0.11 and 0.10 mm (ad-hoc script, 3 Dec
+mean motion per frame after 0.6 s from 0.26 to 0.11 and 0.10 mm (ad-hoc scripts, 3 Dec
 2026); with 2e-6 the 1 cm long-sleeve shirt met the stop rule in 686 s where it was still
 moving at the 30 min limit (docs/drape.md). The explicit step shrinks by √(1+ζ²) − ζ,
 ζ = β / (the undamped stable step)."""
