@@ -285,7 +285,7 @@ def build_drape(
             interactive sandbox's click-to-sew, :func:`seam_springs`).
         seam_capacity: room for this many more seam springs, sewn while the scene runs.
         strain_damping_s: the membrane's strain-rate damping β [s]; None =
-            :data:`DRAPE_STRAIN_DAMPING_S`.
+            :data:`DRAPE_STRAIN_DAMPING_S` (explicit only: 0 with ``implicit_euler``).
     """
     from sandbox import runtime
     from sandbox.collision.body import BodyCollider
@@ -356,6 +356,8 @@ def build_drape(
     beta = DRAPE_STRAIN_DAMPING_S if strain_damping_s is None else float(strain_damping_s)
     if not (beta >= 0 and math.isfinite(beta)):
         raise SandboxError(f"strain damping must be >= 0 s, got {strain_damping_s}")
+    if integrator == "implicit_euler":
+        beta = 0.0  # backward Euler damps the fast modes itself; its Newton step has no β
     model.strain_damping_s[None] = beta
     zeta = beta / limit  # the damping ratio of the fastest mode, ω_max ≈ 2 / limit
     damped = math.sqrt(1.0 + zeta * zeta) - zeta  # its stable step shrinks by this
