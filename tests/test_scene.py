@@ -57,6 +57,11 @@ pins = [{ corners = "top" }]
         (('material = "jersey"', 'material = "chainmail"'), "unknown"),
         (("dt_s = 5e-4", "dt_s = -1.0"), "dt_s: must be > 0"),
         (
+            ("dt_s = 5e-4", 'integrator = "implicit_euler"\nstrain_damping_s = 1e-6'),
+            "strain_damping_s is for symplectic_euler only",
+        ),  # fmt: skip
+        (("dt_s = 5e-4", "strain_damping_s = -1e-6"), "strain_damping_s: must be >= 0"),
+        (
             ("size_m = [0.1, 0.1]", 'shape = "polygon"\noutline_m = [[0, 0], [0.1, 0], [0.2, 0]]'),
             "zero area",
         ),  # fmt: skip
@@ -131,6 +136,20 @@ def test_diverged_run_names_the_step_and_writes_no_mesh(tmp_path):
     assert proc.returncode == 2, proc.stderr
     assert "diverged at step" in proc.stderr and "vertex" in proc.stderr
     assert not (out / "mesh.obj").exists() and not (out / "mesh.ply").exists()
+
+
+def test_strain_damping_reaches_the_model_and_shortens_the_automatic_step():
+    """``strain_damping_s`` sets the model's β; the automatic step shrinks by √(1+ζ²) − ζ."""
+    plain = build_scene(sheet_spec(cloth={"material": "cotton"}))
+    damped = build_scene(sheet_spec(simulation={"strain_damping_s": 1e-5},
+                                    cloth={"material": "cotton"}))  # fmt: skip
+    assert damped.model.strain_damping_s[None] == pytest.approx(1e-5)
+    assert plain.model.strain_damping_s[None] == 0.0
+    zeta = 1e-5 / damped.dt_limit_s
+    factor = math.sqrt(1 + zeta * zeta) - zeta
+    assert 0.5 < factor < 0.99
+    # dt is then rounded down to a whole number of steps per frame
+    assert factor * 0.9 * plain.dt_limit_s * 0.9 < damped.dt_s <= factor * 0.9 * plain.dt_limit_s
 
 
 def test_diverged_run_raises_in_the_api():

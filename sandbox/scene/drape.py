@@ -296,6 +296,7 @@ def build_drape(
         IMPLICIT_DT_S,
         Scene,
         build_self_collider,
+        damped_step,
         make_solver,
         stable_dt_estimate,
     )
@@ -359,10 +360,8 @@ def build_drape(
     if integrator == "implicit_euler":
         beta = 0.0  # backward Euler damps the fast modes itself; its Newton step has no β
     model.strain_damping_s[None] = beta
-    zeta = beta / limit  # the damping ratio of the fastest mode, ω_max ≈ 2 / limit
-    damped = math.sqrt(1.0 + zeta * zeta) - zeta  # its stable step shrinks by this
     auto = min(frame, IMPLICIT_DT_S if integrator == "implicit_euler" else
-               DT_SAFETY * damped * limit)  # fmt: skip
+               DT_SAFETY * damped_step(limit, beta))  # fmt: skip
     dt = dt_s if dt_s is not None else auto
     steps = max(1, math.ceil(frame / dt - 1e-9))
     dt = frame / steps

@@ -60,6 +60,7 @@ class SimulationSpec:
     frame_rate_hz: float = 30.0
     gravity_m_s2: tuple[float, float, float] = (0.0, -9.80665, 0.0)
     damping_per_s: float = 0.5
+    strain_damping_s: float = 0.0  # the membrane's strain-rate damping β [s]; explicit only
     bending: bool = True
     linear_solver: str = "auto"  # implicit_euler only: "auto", "direct" or "cg"
 
@@ -184,7 +185,7 @@ def scene_from_dict(data: dict, *, source: str = "<scene>") -> SceneSpec:
 def _simulation(r: _Reader, t: dict) -> SimulationSpec:
     w = "[simulation]"
     r.keys(t, w, {"integrator", "dt_s", "frame_rate_hz", "gravity_m_s2", "damping_per_s",
-                  "bending", "linear_solver"})  # fmt: skip
+                  "strain_damping_s", "bending", "linear_solver"})  # fmt: skip
     s = SimulationSpec()
     s.integrator = r.choice(t, w, "integrator", INTEGRATORS, s.integrator)
     dt = t.get("dt_s", "auto")
@@ -192,6 +193,10 @@ def _simulation(r: _Reader, t: dict) -> SimulationSpec:
     s.frame_rate_hz = r.number(t, w, "frame_rate_hz", s.frame_rate_hz, positive=True)
     s.gravity_m_s2 = r.vector(t, w, "gravity_m_s2", 3, s.gravity_m_s2)
     s.damping_per_s = r.number(t, w, "damping_per_s", s.damping_per_s, minimum=0.0)
+    s.strain_damping_s = r.number(t, w, "strain_damping_s", s.strain_damping_s, minimum=0.0)
+    if s.strain_damping_s > 0 and s.integrator != "symplectic_euler":
+        raise SandboxError(f"{r.source}: {w} strain_damping_s is for symplectic_euler only "
+                           f"(backward Euler damps the fast modes itself)")  # fmt: skip
     s.bending = r.boolean(t, w, "bending", s.bending)
     s.linear_solver = r.choice(t, w, "linear_solver", LINEAR_SOLVERS, s.linear_solver)
     if s.dt_s is not None and s.dt_s > 1.0 / s.frame_rate_hz:
