@@ -177,6 +177,26 @@ def test_girths_follow_ease_and_measurements():
     assert bust(draft(g, bigger)) - base == pytest.approx(7.0, abs=0.1)
 
 
+@pytest.mark.parametrize("fullness", [0.5, 0.75, 1.0])
+def test_circle_skirt_fullness_keeps_the_waist_and_widens_the_hem(fullness):
+    """The circle skirt's ``fullness``: the four waist arcs still make waist + ease, and the
+    hem is a fraction ``fullness`` of a full circle of radius (waist radius + length)."""
+    g = load_garment("circle-skirt")
+    params = copy.deepcopy(g.params)
+    params["fullness"] = fullness
+    m = size_entry(12).measurements
+    d = draft(dataclasses.replace(g, params=params), m)
+    waist = sum(length(edges_of(p)["waist"]) for p in d["panels"].values())
+    hem = sum(length(edges_of(p)["hem"]) for p in d["panels"].values())
+    assert waist == pytest.approx(m.waist_girth + params["ease_cm"]["waist"], abs=0.2)
+    r = waist / (2 * np.pi * fullness)
+    side = length(edges_of(d["panels"]["front"])["to_left"])  # the skirt's length
+    assert hem == pytest.approx(2 * np.pi * fullness * (r + side), rel=0.01)
+    params["fullness"] = 1.5
+    with pytest.raises(SandboxError, match="fullness 1.5"):
+        draft(dataclasses.replace(g, params=params), m)
+
+
 @pytest.mark.parametrize("name", NAMES)
 def test_panels_face_the_right_way_and_are_placed(name):
     """Front x -> body's left, back x -> body's right, right sleeve x -> front; anchors at

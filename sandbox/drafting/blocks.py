@@ -785,18 +785,24 @@ def panel_edges(panel: dict) -> list[dict]:
 
 
 def circle_skirt(p: dict, b: BodyDims) -> Draft:
-    """Full circle skirt in four quarter-circle gores (front, left, back, right), each on the
-    straight grain at its centre; waist radius = (waist + ease) / 2 pi."""
+    """Circle skirt in four gores (front, left, back, right), each on the straight grain at
+    its centre. ``fullness`` is the fraction of a full circle the four gores make (1: a full
+    circle, 0.5: a half circle, the default 1); waist radius = (waist + ease) / (2 pi
+    fullness), so each gore is a sector of fullness x 90 degrees."""
     e_w = float(p["ease_cm"]["waist"])
-    r = (b.waist + e_w) / (2 * math.pi)
+    full = float(p.get("fullness", 1.0))
+    if not 0.1 <= full <= 1.0:
+        raise SandboxError(f"fullness {full}: must be between 0.1 and 1 (a full circle)")
+    r = (b.waist + e_w) / (2 * math.pi * full)
     hem = p["hem"]
     ln = -_hem_level(hem, b)
     big = r + ln
-    s45 = math.sin(math.pi / 4)
+    phi = full * math.pi / 4  # the gore's half angle
+    sn, cs = math.sin(phi), math.cos(phi)
     c = float(p.get("clearance_cm", 2.0))
     # centre of the circles at (0, r): the waist arc's midpoint is the panel origin
-    wl, wr = P(-r * s45, r - r * s45), P(r * s45, r - r * s45)
-    hl, hr = P(-big * s45, r - big * s45), P(big * s45, r - big * s45)
+    wl, wr = P(-r * sn, r - r * cs), P(r * sn, r - r * cs)
+    hl, hr = P(-big * sn, r - big * cs), P(big * sn, r - big * cs)
     # neighbours of each gore's +x / -x edge (x = the viewer's right, looking from outside)
     gores = {
         "front": ("front", "waist_front", "left", "right"),
@@ -807,9 +813,9 @@ def circle_skirt(p: dict, b: BodyDims) -> Draft:
     panels = {}
     for g, (side, landmark, plus, minus) in gores.items():
         es = [
-            arc("hem", hl, hr, -big * (1 - s45)),
+            arc("hem", hl, hr, -big * (1 - cs)),
             line(f"to_{plus}", hr, wr),
-            arc("waist", wr, wl, r * (1 - s45)),
+            arc("waist", wr, wl, r * (1 - cs)),
             line(f"to_{minus}", wl, hl),
         ]
         panels[g] = panel_dict(
