@@ -91,7 +91,7 @@ def main(argv=None) -> int:
         type=float,
         default=None,
         help="the membrane's strain-rate damping [s] (sandbox.scene.drape."
-        "DRAPE_STRAIN_DAMPING_S, default 2e-6; 0: off)",
+        "DRAPE_STRAIN_DAMPING_S, default 4e-6; 0: off)",
     )
     p.add_argument(
         "--table",

@@ -171,7 +171,7 @@ def _add_drape_parsers(sub) -> None:
                    help="symplectic_euler (the paper's Eq. 2, default) or implicit_euler "
                    "(backward Euler at 1/60 s steps, docs/implicit.md)")  # fmt: skip
     p.add_argument("--strain-damping", type=float, default=None, metavar="S",
-                   help="the membrane's strain-rate damping in s (default 2e-6; 0: off; it "
+                   help="the membrane's strain-rate damping in s (default 4e-6; 0: off; it "
                    "settles stiff fabrics' contact chatter, docs/drape.md)")  # fmt: skip
     p.add_argument("--out", type=Path, default=None, help="output directory (created)")
     p.add_argument("--no-render", action="store_true", help="skip the PNGs")

@@ -106,6 +106,11 @@ def test_a_hem_folded_up_is_flagged_and_a_sheet_that_only_sags_is_not():
     assert fold_metrics(front, back, tri, body)["folded_area_pct"] == 0.0
     m = fold_metrics(front, folded + [0.0, 0.0, 0.01], tri, body)
     assert m["folded_area_pct"] == pytest.approx(7.5, abs=0.01) and m["rolled_up"]
+    # a panel pushed 2 cm out to where a hand (at z = 0.04, its surface facing the panel
+    # pointing -z) is the nearest body part: it faces the hand now, but has not turned
+    hand = SimpleNamespace(surface_normals=lambda c: np.column_stack(
+        [np.zeros(len(c)), np.zeros(len(c)), np.where(c[:, 2] < 0.02, 1.0, -1.0)]))  # fmt: skip
+    assert fold_metrics(front, front + [0.0, 0.0, 0.02], tri, hand)["folded_area_pct"] == 0.0
 
 
 def test_the_gallery_table_counts_the_garments_that_meet_the_acceptance(tmp_path):
