@@ -192,6 +192,9 @@ def _add_drape_parsers(sub) -> None:
     p.add_argument("--only", nargs="+", default=None, metavar="GARMENT", help="a subset")
     p.add_argument("--edge-cm", type=float, default=None, help="mesh edge in cm (default 1)")
     p.add_argument("--meshes", action="store_true", help="also write each garment's meshes")
+    p.add_argument("--resume", action="store_true",
+                   help="read back the garments already draped in --out with the same size, "
+                   "mesh edge and fabric instead of draping them again")  # fmt: skip
     _add_runtime_flags(p)
 
 
@@ -268,7 +271,8 @@ def cmd_gallery(args) -> int:
     runtime.init(args.arch, float64=args.float64)
     paths = gallery(args.out, quick=args.quick, size=args.size, names=args.only,
                     edge_length_m=None if args.edge_cm is None else args.edge_cm / 100.0,
-                    meshes=args.meshes, progress=not args.quiet)  # fmt: skip
+                    meshes=args.meshes, progress=not args.quiet,
+                    resume=args.resume)  # fmt: skip
     for p in paths:
         print(p)
     return 0

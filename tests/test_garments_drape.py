@@ -56,6 +56,7 @@ def test_library_garment_meets_the_acceptance_on_a_coarse_mesh(name, mannequin, 
     shoulders = hangs_from == "shoulder_point_left"  # tops and dresses: SEW_GRAVITY_TOPS
     assert m["sew_gravity_fraction"] == (SEW_GRAVITY_TOPS if shoulders else 0.0)
     assert m["meets_acceptance"]
+    assert m["edge_length_m"] == edge  # recorded for the gallery's --resume
 
 
 BODY = SimpleNamespace(landmarks={"shoulder_point_left": [0.18, 1.42, 0.0],
@@ -135,3 +136,38 @@ def test_the_gallery_table_counts_the_garments_that_meet_the_acceptance(tmp_path
     text = write_table(tmp_path / "gallery.md", rows).read_text()
     assert "1 of 3 meet the acceptance; median wall time 30 s." in text
     assert "| c | jersey | 900 | 30 | +8.0 | yes | 1.50 | 0 | 0 | 0.5 | no |" in text
+
+
+def test_the_gallery_reads_back_drapes_already_written_with_the_same_settings(tmp_path):
+    import json
+
+    import imageio.v3 as iio
+
+    from sandbox.scene.gallery import earlier_drape, gallery
+
+    m = {"garment": "tank-top", "mannequin_size": 12, "edge_length_m": 0.01, "fabric": "knit",
+         "vertex_count": 6330, "wall_time_s": 60.0, "total_wall_time_s": 69.0,
+         "sim_time_s": 1.5, "converged": True, "seam_gap_max_m": 0.9e-3,
+         "vertices_inside_body": 0, "intersecting_triangle_pairs": 0, "folded_area_pct": 0.3,
+         "meets_acceptance": True}  # fmt: skip
+    folder = tmp_path / "tank-top"
+    folder.mkdir()
+    (folder / "metrics.json").write_text(json.dumps(m))
+    image = np.zeros((64, 64, 3), np.uint8)
+    image[16:48, 16:48] = (200, 30, 30)
+    iio.imwrite(folder / "render.png", image)
+    got = earlier_drape(folder, "tank-top", 12, 0.01)
+    assert got is not None and got[1].shape == (64, 64, 3)
+    assert earlier_drape(folder, "tank-top", 8, 0.01) is None  # another size
+    assert earlier_drape(folder, "tank-top", 12, 0.02) is None  # another mesh edge
+    assert earlier_drape(folder, "tank-top", 12, 0.01, "jersey") is None  # another fabric
+    assert earlier_drape(folder, "camisole", 12, 0.01) is None  # another garment
+    assert earlier_drape(tmp_path / "none", "tank-top", 12, 0.01) is None
+    sheet, table, _ = gallery(tmp_path, names=["tank-top"], resume=True, progress=False)
+    text = table.read_text()
+    assert "| tank-top | knit | 6330 | 69 |" in text and "1 of 1 meet the acceptance" in text
+    assert "1 of 1 garments read back" in text
+    assert np.asarray(iio.imread(sheet))[..., 0].min() < 255  # the tile is on the sheet
+    (folder / "metrics.json").write_text(json.dumps({k: v for k, v in m.items()
+                                                     if k != "edge_length_m"}))  # fmt: skip
+    assert earlier_drape(folder, "tank-top", 12, 0.01) is None  # edge not recorded: draped again

@@ -375,6 +375,7 @@ def build_drape(
     scene.placement_body = body
     scene.builder, scene.meshes, scene.piece_index, scene.placed = builder, meshes, index, placed
     scene.seam_stiffness_N_m = seam_k
+    scene.edge_length_m = pattern.mesh_edge_m if edge_length_m is None else float(edge_length_m)
     return scene
 
 
@@ -818,6 +819,7 @@ def drape_metrics(scene, result, *, build_s: float = 0.0) -> dict:
         fabric=getattr(mat, "name", None),
         mannequin_size=mannequin.size,
         mannequin_measurements_cm=_measurements_dict(mannequin),
+        edge_length_m=getattr(scene, "edge_length_m", None),
         damping_per_s=float(scene.control.damping_per_s[None]),
         self_collision=scene.model.self_collider is not None,
         build_time_s=build_s,

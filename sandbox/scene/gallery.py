@@ -11,6 +11,12 @@
   with ``meshes=True``).
 
 A garment that fails (bad pattern, diverged run) gets a row saying why; the others go on.
+With ``resume=True`` (``--resume``) a garment whose ``<garment>/metrics.json`` and
+``render.png`` are already in ``--out`` for the same mannequin size, mesh edge and fabric is
+read back instead of draped again: an interrupted gallery goes on where it stopped, and a
+sheet can be put together from drapes run one by one (``python -m sandbox drape GARMENT
+--out DIR/GARMENT``, or ``benchmarks/bench_drape.py``, whose output folders have the same
+files).
 """
 
 from __future__ import annotations
@@ -43,11 +49,13 @@ def gallery(
     edge_length_m: float | None = None,
     meshes: bool = False,
     progress: bool = True,
+    resume: bool = False,
 ) -> list[Path]:
     """Drape the library's garments and write the contact sheet and the table.
 
     ``quick``: 3 cm meshes, every garment in jersey (soft: large explicit steps), 4 s limit.
-    Returns the written paths (sheet, table, JSON).
+    ``resume``: read back a garment already draped in ``out_dir`` with the same settings
+    (:func:`earlier_drape`). Returns the written paths (sheet, table, JSON).
     """
     from sandbox.scene.drape import drape, garment_names, make_mannequin
 
@@ -65,9 +73,21 @@ def gallery(
     edge = edge_length_m if edge_length_m is not None else (QUICK_EDGE_M if quick else 0.01)
     options = {"fabric": QUICK_FABRIC, "time_limit_s": QUICK_TIME_LIMIT_S} if quick else {}
     rows, tiles = [], []
+    reused = 0
     for i, name in enumerate(chosen):
         if progress:
             print(f"[{i + 1}/{len(chosen)}] {name} ...", flush=True)
+        earlier = earlier_drape(out / name, name, size, edge,
+                                QUICK_FABRIC if quick else None) if resume else None  # fmt: skip
+        if earlier is not None:
+            m, tile = earlier
+            rows.append(_row(name, m))
+            tiles.append((name, tile))
+            reused += 1
+            if progress:
+                print(f"    read back from {out / name} ({m['vertex_count']} vertices, "
+                      f"{rows[-1]['wall_time_s']:.0f} s then)", flush=True)  # fmt: skip
+            continue
         t0 = time.perf_counter()
         runtime.recycle()  # the garments before are written out: free Taichi's field trees
         try:
@@ -92,11 +112,54 @@ def gallery(
     header = f"Size {size} mannequin, {'quick: ' if quick else ''}{edge * 100:g} cm mesh edges"
     header += fabrics + ". Reproduce: `python -m sandbox gallery" + (" --quick" if quick else "")
     header += (f" --size {size}" if size != 12 else "") + "`"
+    if reused:
+        header += (f" ({reused} of {len(chosen)} garments read back from earlier drapes with "
+                   "the same settings, `--resume`; their wall times are those runs')")  # fmt: skip
     return [
         write_sheet(out / "gallery.png", tiles),
         write_table(out / "gallery.md", rows, header),
         _write_json(out / "gallery.json", rows, header),
     ]
+
+
+def earlier_drape(folder, name: str, size: int, edge_length_m: float, fabric: str | None = None):
+    """``(metrics, front image)`` of a drape of garment ``name`` already written to
+    ``folder`` (``metrics.json`` and ``render.png``) on the database mannequin ``size`` with
+    mesh edge ``edge_length_m`` [m] (and ``fabric``, if not None), or None when there is none,
+    it was made otherwise (metrics without ``edge_length_m`` included), or its files cannot
+    be read (a warning says which)."""
+    import imageio.v3 as iio
+
+    folder = Path(folder)
+    path, image = folder / "metrics.json", folder / "render.png"
+    if not path.is_file():
+        return None
+    try:
+        import json
+
+        m = json.loads(path.read_text())
+        tile = np.asarray(iio.imread(image))[:, :, :3]
+    except (OSError, ValueError, IndexError) as exc:
+        log.warning("%s: cannot read the earlier drape (%s); draping again", folder, exc)
+        return None
+    differs = []
+    if m.get("garment") != name:
+        differs.append(f"garment {m.get('garment')!r}")
+    if m.get("mannequin_size") != size:
+        differs.append(f"size {m.get('mannequin_size')}")
+    edge = m.get("edge_length_m")
+    if edge is None:
+        differs.append("no mesh edge recorded (metrics from before the seventeenth session)")
+    elif not math.isclose(edge, edge_length_m, rel_tol=1e-6):
+        differs.append(f"mesh edge {edge * 100:g} cm")
+    if fabric is not None and m.get("fabric") != fabric:
+        differs.append(f"fabric {m.get('fabric')}")
+    if "vertex_count" not in m or "wall_time_s" not in m:
+        differs.append("no vertex count or wall time")
+    if differs:
+        log.warning("%s: made with %s; draping again", path, ", ".join(differs))
+        return None
+    return m, tile
 
 
 def _row(name: str, m: dict) -> dict:
