@@ -175,6 +175,8 @@ def _add_drape_parsers(sub) -> None:
                    "settles stiff fabrics' contact chatter, docs/drape.md)")  # fmt: skip
     p.add_argument("--out", type=Path, default=None, help="output directory (created)")
     p.add_argument("--no-render", action="store_true", help="skip the PNGs")
+    p.add_argument("--no-meshes", action="store_true",
+                   help="no garment.obj/.ply or body.obj: renders and metrics only")  # fmt: skip
     _add_runtime_flags(p)
 
     p = sub.add_parser(
@@ -195,6 +197,9 @@ def _add_drape_parsers(sub) -> None:
     p.add_argument("--resume", action="store_true",
                    help="read back the garments already draped in --out with the same size, "
                    "mesh edge and fabric instead of draping them again")  # fmt: skip
+    p.add_argument("--jobs", "-j", type=int, default=1, metavar="N",
+                   help="drape N garments at once, each in its own process with the CPU's "
+                   "threads shared out (default 1)")  # fmt: skip
     _add_runtime_flags(p)
 
 
@@ -232,7 +237,8 @@ def cmd_drape(args) -> int:
     runtime.init(args.arch, float64=args.float64)
     res = drape(args.garment, size=args.size, measurements=measurements or None,
                 fabric=args.fabric, out_dir=args.out, edge_length_m=args.edge_cm / 100.0,
-                render=not args.no_render, progress=None if not args.quiet else False,
+                render=not args.no_render, meshes=not args.no_meshes,
+                progress=None if not args.quiet else False,
                 **options)  # fmt: skip
     if not args.quiet:
         m = res.metrics
@@ -272,7 +278,7 @@ def cmd_gallery(args) -> int:
     paths = gallery(args.out, quick=args.quick, size=args.size, names=args.only,
                     edge_length_m=None if args.edge_cm is None else args.edge_cm / 100.0,
                     meshes=args.meshes, progress=not args.quiet,
-                    resume=args.resume)  # fmt: skip
+                    resume=args.resume, jobs=args.jobs)  # fmt: skip
     for p in paths:
         print(p)
     return 0

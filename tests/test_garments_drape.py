@@ -171,3 +171,21 @@ def test_the_gallery_reads_back_drapes_already_written_with_the_same_settings(tm
     (folder / "metrics.json").write_text(json.dumps({k: v for k, v in m.items()
                                                      if k != "edge_length_m"}))  # fmt: skip
     assert earlier_drape(folder, "tank-top", 12, 0.01) is None  # edge not recorded: draped again
+
+
+def test_the_gallery_drapes_in_parallel_processes_and_reads_them_back(tmp_path):
+    """``gallery --quick --jobs 2`` on two garments: two ``python -m sandbox drape``
+    processes, their renders and metrics read back into one table, no meshes written."""
+    from sandbox.errors import SandboxError
+    from sandbox.scene.gallery import gallery
+
+    with pytest.raises(SandboxError, match="jobs must be"):
+        gallery(tmp_path, quick=True, names=["camisole"], jobs=0, progress=False)
+    _, table, _ = gallery(tmp_path, quick=True, names=["camisole", "halter-top"], jobs=2,
+                          progress=False)  # fmt: skip
+    text = table.read_text()
+    assert "--quick --jobs 2" in text and "failed" not in text
+    for name in ("camisole", "halter-top"):
+        assert f"| {name} | jersey |" in text
+        assert (tmp_path / name / "drape.log").is_file()
+        assert not (tmp_path / name / "garment.obj").exists()  # --no-meshes

@@ -50,12 +50,15 @@ def gallery(
     meshes: bool = False,
     progress: bool = True,
     resume: bool = False,
+    jobs: int = 1,
 ) -> list[Path]:
     """Drape the library's garments and write the contact sheet and the table.
 
     ``quick``: 3 cm meshes, every garment in jersey (soft: large explicit steps), 4 s limit.
     ``resume``: read back a garment already draped in ``out_dir`` with the same settings
-    (:func:`earlier_drape`). Returns the written paths (sheet, table, JSON).
+    (:func:`earlier_drape`). ``jobs`` > 1: drape that many garments at once, each in its
+    own ``python -m sandbox drape`` process (:func:`drape_in_processes`) with the CPU's
+    threads shared out, then read them back. Returns the written paths (sheet, table, JSON).
     """
     from sandbox.scene.drape import drape, garment_names, make_mannequin
 
@@ -67,6 +70,8 @@ def gallery(
     if unknown:
         raise SandboxError(f"gallery: unknown garment(s) {', '.join(unknown)}; the library has "
                            f"{', '.join(library)}")  # fmt: skip
+    if not (isinstance(jobs, int) and jobs >= 1):
+        raise SandboxError(f"gallery: jobs must be a whole number >= 1, got {jobs!r}")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     mannequin = make_mannequin(size)
@@ -74,9 +79,21 @@ def gallery(
     options = {"fabric": QUICK_FABRIC, "time_limit_s": QUICK_TIME_LIMIT_S} if quick else {}
     rows, tiles = [], []
     reused = 0
+    failed: dict[str, str] = {}
+    if jobs > 1:
+        todo = [n for n in chosen if not (resume and earlier_drape(
+            out / n, n, size, edge, QUICK_FABRIC if quick else None) is not None)]  # fmt: skip
+        failed = drape_in_processes(todo, out, size=size, edge_length_m=edge, jobs=jobs,
+                                    meshes=meshes, progress=progress, **options)  # fmt: skip
+        resume = True  # read them all back below
+        reused -= len(todo) - len(failed)  # draped now, not earlier
     for i, name in enumerate(chosen):
-        if progress:
+        if progress and jobs == 1:
             print(f"[{i + 1}/{len(chosen)}] {name} ...", flush=True)
+        if name in failed:
+            rows.append({"garment": name, "error": failed[name], "wall_time_s": 0.0})
+            tiles.append((name, None))
+            continue
         earlier = earlier_drape(out / name, name, size, edge,
                                 QUICK_FABRIC if quick else None) if resume else None  # fmt: skip
         if earlier is not None:
@@ -84,7 +101,7 @@ def gallery(
             rows.append(_row(name, m))
             tiles.append((name, tile))
             reused += 1
-            if progress:
+            if progress and jobs == 1:
                 print(f"    read back from {out / name} ({m['vertex_count']} vertices, "
                       f"{rows[-1]['wall_time_s']:.0f} s then)", flush=True)  # fmt: skip
             continue
@@ -111,7 +128,8 @@ def gallery(
     fabrics = f", every garment in {QUICK_FABRIC}" if quick else ", each garment's fabric"
     header = f"Size {size} mannequin, {'quick: ' if quick else ''}{edge * 100:g} cm mesh edges"
     header += fabrics + ". Reproduce: `python -m sandbox gallery" + (" --quick" if quick else "")
-    header += (f" --size {size}" if size != 12 else "") + "`"
+    header += (f" --size {size}" if size != 12 else "") + (f" --jobs {jobs}" if jobs > 1 else "")
+    header += "`"
     if reused:
         header += (f" ({reused} of {len(chosen)} garments read back from earlier drapes with "
                    "the same settings, `--resume`; their wall times are those runs')")  # fmt: skip
@@ -120,6 +138,62 @@ def gallery(
         write_table(out / "gallery.md", rows, header),
         _write_json(out / "gallery.json", rows, header),
     ]
+
+
+def drape_in_processes(names, out_dir, *, size: int, edge_length_m: float, jobs: int,
+                       meshes: bool = False, progress: bool = True, fabric: str | None = None,
+                       time_limit_s: float | None = None) -> dict[str, str]:  # fmt: skip
+    """Drape ``names`` with ``python -m sandbox drape`` processes, ``jobs`` at a time, each
+    into ``out_dir/<name>`` (its output in ``drape.log`` there).
+
+    Each process gets ``TI_CPU_MAX_NUM_THREADS`` = the CPU count / ``jobs`` (at least 1;
+    unless the variable is set already) and this process's arch and precision. Returns
+    ``{name: reason}`` for the garments whose process failed (the last line of its log).
+    """
+    import os
+    import subprocess
+    import sys
+
+    out = Path(out_dir)
+    env = dict(os.environ)
+    env.setdefault("TI_CPU_MAX_NUM_THREADS", str(max(1, (os.cpu_count() or 1) // jobs)))
+    flags = ["--arch", runtime.arch(), "--float64" if runtime.is_float64() else "--float32"]
+    flags += ["--size", str(size), "--edge-cm", f"{edge_length_m * 100:.10g}", "--quiet"]
+    if fabric is not None:
+        flags += ["--fabric", fabric]
+    if time_limit_s is not None:
+        flags += ["--time-limit", f"{time_limit_s:.10g}"]
+    if not meshes:
+        flags.append("--no-meshes")
+    waiting, running, failed = list(names), {}, {}
+    done = 0
+    while waiting or running:
+        while waiting and len(running) < jobs:
+            name = waiting.pop(0)
+            (out / name).mkdir(parents=True, exist_ok=True)
+            log_file = open(out / name / "drape.log", "w")  # noqa: SIM115 (closed below)
+            cmd = [sys.executable, "-m", "sandbox", "drape", name, "--out", str(out / name)]
+            proc = subprocess.Popen(cmd + flags, stdout=log_file, stderr=subprocess.STDOUT,
+                                    env=env)  # fmt: skip
+            running[name] = (proc, log_file, time.perf_counter())
+            if progress:
+                print(f"  started {name} ({len(running)} running, {len(waiting)} waiting)",
+                      flush=True)  # fmt: skip
+        time.sleep(0.2)
+        for name, (proc, log_file, t0) in list(running.items()):
+            if proc.poll() is None:
+                continue
+            log_file.close()
+            del running[name]
+            done += 1
+            if proc.returncode != 0:
+                lines = (out / name / "drape.log").read_text(errors="replace").splitlines()
+                failed[name] = (lines[-1] if lines else f"exit status {proc.returncode}")[:300]
+            if progress:
+                state = f"failed: {failed[name]}" if name in failed else "done"
+                print(f"[{done}/{len(names)}] {name} {state} "
+                      f"({time.perf_counter() - t0:.0f} s)", flush=True)  # fmt: skip
+    return failed
 
 
 def earlier_drape(folder, name: str, size: int, edge_length_m: float, fabric: str | None = None):
