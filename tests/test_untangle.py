@@ -106,3 +106,72 @@ def test_the_drape_untangles_its_state_in_place_and_stops_the_moved_vertices():
     # nothing to do: the state is left as it is
     again = untangle_state(scene, "after the drape")
     assert again["pairs_before"] == again["pairs_after"] == again["vertices_moved"] == 0
+
+
+def test_a_drape_ending_tangled_is_untangled_and_settled_with_the_seam_zone_narrowed(
+    monkeypatch,
+):
+    """``run_drape``'s repair: a drape that ends with crossing pairs is untangled and
+    settled again with the self-collision's seam exclusion narrowed to the partners
+    (``REPAIR_NARROW_EXCLUSION``); one that ends without any is left alone."""
+    import dataclasses
+    from types import SimpleNamespace
+
+    import sandbox.scene.drape as drape_mod
+    import sandbox.scene.run as run_mod
+
+    @dataclasses.dataclass
+    class Stop:
+        min_time_s: float = 0.5
+        time_limit_s: float = 8.0
+        wall_limit_s: float = 1800.0
+
+    @dataclasses.dataclass
+    class Spec:
+        stop: Stop
+
+    calls = []
+
+    class Collider:
+        narrowed = False
+
+        def set_seam_partners(self, pairs, neighbours=True):
+            calls.append(("partners", neighbours))
+            self.narrowed = not neighbours
+
+    def scene(pairs_at_end):
+        collider = Collider()
+        runs = iter(pairs_at_end)
+
+        def fake_run(sc, progress=None):
+            calls.append(("run", collider.narrowed, sc.spec.stop.min_time_s))
+            m = {
+                "intersecting_triangle_pairs": next(runs),
+                "sim_time_s": 1.0,
+                "wall_time_s": 10.0,
+                "steps": 1,
+                "frames": 30,
+                "compile_time_s": 0.0,
+            }
+            return SimpleNamespace(metrics=m)
+
+        monkeypatch.setattr(run_mod, "run_scene", fake_run)
+        model = SimpleNamespace(seam_count=4, seam_pairs_np=np.array([[0, 1], [2, 3]]),
+                                strain_damping_s={None: 0.0})  # fmt: skip
+        return SimpleNamespace(spec=Spec(Stop()), model=model,
+                               solver=SimpleNamespace(self_collider=collider))  # fmt: skip
+
+    monkeypatch.setattr(drape_mod, "sew", lambda sc, **kw: {"sew_wall_time_s": 1.0})
+
+    def fake_untangle(sc, when=""):
+        return {"when": when, "pairs_before": 2, "pairs_after": 0}
+
+    monkeypatch.setattr(drape_mod, "untangle_state", fake_untangle)
+    res = drape_mod.run_drape(scene([2, 0]))
+    assert calls == [("run", False, 0.5), ("partners", False), ("run", True, 0.2)]
+    assert res.metrics["intersecting_triangle_pairs"] == 0
+    assert res.metrics["untangle"][1]["narrowed_seam_exclusion"]
+    assert res.metrics["sim_time_s"] == 2.0 and res.metrics["total_wall_time_s"] == 21.0
+    calls.clear()
+    drape_mod.run_drape(scene([0]))
+    assert calls == [("run", False, 0.5)]  # nothing crossed: nothing narrowed
