@@ -77,34 +77,38 @@ def gallery(
     mannequin = make_mannequin(size)
     edge = edge_length_m if edge_length_m is not None else (QUICK_EDGE_M if quick else 0.01)
     options = {"fabric": QUICK_FABRIC, "time_limit_s": QUICK_TIME_LIMIT_S} if quick else {}
-    rows, tiles = [], []
-    reused = 0
+    fabric = QUICK_FABRIC if quick else None
+
+    def read_back(names):  # {name: (metrics, front image)} of those already in out
+        found = {n: earlier_drape(out / n, n, size, edge, fabric) for n in names}
+        return {n: got for n, got in found.items() if got is not None}
+
+    earlier = read_back(chosen) if resume else {}
+    draped: dict = {}  # drapes run in their own processes (jobs > 1), read back
     failed: dict[str, str] = {}
     if jobs > 1:
-        todo = [n for n in chosen if not (resume and earlier_drape(
-            out / n, n, size, edge, QUICK_FABRIC if quick else None) is not None)]  # fmt: skip
+        todo = [n for n in chosen if n not in earlier]
         failed = drape_in_processes(todo, out, size=size, edge_length_m=edge, jobs=jobs,
                                     meshes=meshes, progress=progress, **options)  # fmt: skip
-        resume = True  # read them all back below
-        reused -= len(todo) - len(failed)  # draped now, not earlier
+        draped = read_back([n for n in todo if n not in failed])
+    rows, tiles = [], []
     for i, name in enumerate(chosen):
-        if progress and jobs == 1:
-            print(f"[{i + 1}/{len(chosen)}] {name} ...", flush=True)
         if name in failed:
             rows.append({"garment": name, "error": failed[name], "wall_time_s": 0.0})
             tiles.append((name, None))
             continue
-        earlier = earlier_drape(out / name, name, size, edge,
-                                QUICK_FABRIC if quick else None) if resume else None  # fmt: skip
-        if earlier is not None:
-            m, tile = earlier
+        got = earlier.get(name) or draped.get(name)
+        if got is not None:
+            m, tile = got
             rows.append(_row(name, m))
             tiles.append((name, tile))
-            reused += 1
-            if progress and jobs == 1:
-                print(f"    read back from {out / name} ({m['vertex_count']} vertices, "
-                      f"{rows[-1]['wall_time_s']:.0f} s then)", flush=True)  # fmt: skip
+            if progress and name in earlier:
+                print(f"[{i + 1}/{len(chosen)}] {name}: read back from {out / name} "
+                      f"({m['vertex_count']} vertices, {rows[-1]['wall_time_s']:.0f} s then)",
+                      flush=True)  # fmt: skip
             continue
+        if progress:
+            print(f"[{i + 1}/{len(chosen)}] {name} ...", flush=True)
         t0 = time.perf_counter()
         runtime.recycle()  # the garments before are written out: free Taichi's field trees
         try:
@@ -130,8 +134,8 @@ def gallery(
     header += fabrics + ". Reproduce: `python -m sandbox gallery" + (" --quick" if quick else "")
     header += (f" --size {size}" if size != 12 else "") + (f" --jobs {jobs}" if jobs > 1 else "")
     header += "`"
-    if reused:
-        header += (f" ({reused} of {len(chosen)} garments read back from earlier drapes with "
+    if earlier:
+        header += (f" ({len(earlier)} of {len(chosen)} garments read back from earlier drapes with "
                    "the same settings, `--resume`; their wall times are those runs')")  # fmt: skip
     return [
         write_sheet(out / "gallery.png", tiles),
