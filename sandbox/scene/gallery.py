@@ -74,10 +74,10 @@ def gallery(
         raise SandboxError(f"gallery: jobs must be a whole number >= 1, got {jobs!r}")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    mannequin = make_mannequin(size)
+    mannequin = None  # built for the first garment draped in this process
     edge = edge_length_m if edge_length_m is not None else (QUICK_EDGE_M if quick else 0.01)
     options = {"fabric": QUICK_FABRIC, "time_limit_s": QUICK_TIME_LIMIT_S} if quick else {}
-    fabric = QUICK_FABRIC if quick else None
+    fabric = options.get("fabric")
 
     def read_back(names):  # {name: (metrics, front image)} of those already in out
         found = {n: earlier_drape(out / n, n, size, edge, fabric) for n in names}
@@ -111,6 +111,7 @@ def gallery(
             print(f"[{i + 1}/{len(chosen)}] {name} ...", flush=True)
         t0 = time.perf_counter()
         runtime.recycle()  # the garments before are written out: free Taichi's field trees
+        mannequin = mannequin or make_mannequin(size)
         try:
             res = drape(name, mannequin=mannequin, out_dir=out / name, edge_length_m=edge,
                         progress=False, meshes=meshes, **options)  # fmt: skip
