@@ -31,7 +31,7 @@ def build(n_vertices: int):
 
     @ti.kernel
     def membrane():
-        s._membrane_forces(x)
+        s._membrane_forces(x, v)
 
     @ti.kernel
     def bending():

@@ -169,7 +169,9 @@ def _add_drape_parsers(sub) -> None:
     p.add_argument("--integrator", choices=["symplectic_euler", "implicit_euler"],
                    default="symplectic_euler",
                    help="symplectic_euler (the paper's Eq. 2, default) or implicit_euler "
-                   "(backward Euler at 1/60 s steps, docs/implicit.md)")  # fmt: skip
+                   "(backward Euler at 1/60 s steps, docs/implicit.md; garments only at "
+                   "--edge-cm 3 or coarser: finer, Newton does not converge and a drape "
+                   "takes hours)")  # fmt: skip
     p.add_argument("--strain-damping", type=float, default=None, metavar="S",
                    help="the membrane's strain-rate damping in s (default 4e-6; 0: off; it "
                    "settles stiff fabrics' contact chatter, docs/drape.md)")  # fmt: skip

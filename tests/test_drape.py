@@ -11,7 +11,13 @@ from sandbox.cli import main
 from sandbox.mannequin import build_mannequin
 from sandbox.mannequin.tape import girth_at
 from sandbox.pattern.spec import load_pattern
-from sandbox.scene.drape import build_drape, drape, ease_cm
+from sandbox.scene.drape import (
+    IMPLICIT_GARMENT_EDGE_M,
+    build_drape,
+    drape,
+    ease_cm,
+    implicit_mesh_warning,
+)
 
 DATA = Path(__file__).parent / "data"
 
@@ -134,6 +140,15 @@ def test_implicit_drape_sews_and_drapes_the_tube_skirt(mannequin, tmp_path):
     assert m["nan_positions"] == 0 and m["vertices_inside_body"] == 0
     assert m["sew_frames"] > 0 and m["sew_gap_m"] < 0.01
     assert res.scene.solver.stats()["factorisations"] > 0  # the direct linear solver ran
+    assert m["integrator_warning"] is None  # 5 cm: coarser than the measured limit
+
+
+def test_implicit_drape_on_a_fine_mesh_warns():
+    """implicit_euler finer than 3 cm gets a warning that names the limit and the way out."""
+    note = implicit_mesh_warning("implicit_euler", 0.01)
+    assert "1 cm" in note and "3 cm" in note and "symplectic_euler" in note
+    assert implicit_mesh_warning("implicit_euler", IMPLICIT_GARMENT_EDGE_M) is None
+    assert implicit_mesh_warning("symplectic_euler", 0.01) is None
 
 
 def test_the_seam_exclusion_narrows_to_the_partners(skirt_run):

@@ -153,6 +153,12 @@ moving at the 30 min limit (docs/drape.md), but at size 8 it still moved 0.20 mm
 the limit; with 4e-6 (the default since the seventeenth session) it met the rule in 410 s.
 The explicit step shrinks by √(1+ζ²) − ζ, ζ = β / (the undamped stable step): ~18 % for
 cotton at 1 cm with 4e-6 s."""
+IMPLICIT_GARMENT_EDGE_M = 0.03
+"""Finest mesh edge [m] at which ``implicit_euler`` drapes have been measured to work: the
+pencil skirt at 3 cm converges (about 25 s). At 1 cm Newton does not converge in its 50
+iterations per 1/60 s step, neither while sewing nor after an explicit sewing phase (15-30 s
+per step on the A-line skirt, docs/implicit.md), so a drape would take hours. A finer mesh
+gets :func:`implicit_mesh_warning` (logged and kept in metrics.json), not an error."""
 DRAPE_MIN_TIME_S = 0.5
 DRAPE_TIME_LIMIT_S = 8.0
 DRAPE_WALL_LIMIT_S = 1800.0
@@ -387,6 +393,9 @@ def build_drape(
     scene.builder, scene.meshes, scene.piece_index, scene.placed = builder, meshes, index, placed
     scene.seam_stiffness_N_m = seam_k
     scene.edge_length_m = pattern.mesh_edge_m if edge_length_m is None else float(edge_length_m)
+    scene.integrator_warning = implicit_mesh_warning(integrator, scene.edge_length_m)
+    if scene.integrator_warning:
+        log.warning("%s: %s", pattern.name, scene.integrator_warning)
     return scene
 
 
@@ -822,6 +831,20 @@ def untangle_state(scene, when: str = "") -> dict:
     return out
 
 
+def implicit_mesh_warning(integrator: str, edge_length_m: float | None) -> str | None:
+    """The warning for an ``implicit_euler`` drape meshed finer than
+    :data:`IMPLICIT_GARMENT_EDGE_M`, or None."""
+    if integrator != "implicit_euler" or edge_length_m is None:
+        return None
+    if edge_length_m >= IMPLICIT_GARMENT_EDGE_M - 1e-9:
+        return None
+    return (f"implicit_euler at a {edge_length_m * 100:g} cm mesh: Newton does not converge "
+            f"within its iterations per step on garments finer than "
+            f"{IMPLICIT_GARMENT_EDGE_M * 100:g} cm (measured at 1 cm: 15-30 s per 1/60 s "
+            f"step, so hours per drape; docs/implicit.md). Use symplectic_euler at this mesh, "
+            f"or --edge-cm {IMPLICIT_GARMENT_EDGE_M * 100:g} with implicit_euler.")  # fmt: skip
+
+
 def drape_metrics(scene, result, *, build_s: float = 0.0) -> dict:
     """metrics.json of a drape: the run's metrics, the garment, the body and the ease."""
     model, mannequin = scene.model, scene.mannequin
@@ -836,6 +859,7 @@ def drape_metrics(scene, result, *, build_s: float = 0.0) -> dict:
         mannequin_size=mannequin.size,
         mannequin_measurements_cm=_measurements_dict(mannequin),
         edge_length_m=getattr(scene, "edge_length_m", None),
+        integrator_warning=getattr(scene, "integrator_warning", None),
         damping_per_s=float(scene.control.damping_per_s[None]),
         self_collision=scene.model.self_collider is not None,
         build_time_s=build_s,
