@@ -159,7 +159,9 @@ def _add_drape_parsers(sub) -> None:
     p.add_argument("--list", action="store_true", help="print the library's garments, one a line")
     add_measurement_flags(p)
     p.add_argument("--fabric", default=None, help="fabric preset (default: the garment's own)")
-    p.add_argument("--edge-cm", type=float, default=1.0, help="mesh edge length in cm (default 1)")
+    p.add_argument("--edge-cm", type=float, default=None,
+                   help="mesh edge length in cm (default 1; 3 with --integrator "
+                   "implicit_euler)")  # fmt: skip
     p.add_argument("--time-limit", type=float, default=None, metavar="S",
                    help="simulated time limit in s (default 8)")  # fmt: skip
     p.add_argument("--no-self-collision", action="store_true", help="cloth passes through itself")
@@ -169,8 +171,8 @@ def _add_drape_parsers(sub) -> None:
     p.add_argument("--integrator", choices=["symplectic_euler", "implicit_euler"],
                    default="symplectic_euler",
                    help="symplectic_euler (the paper's Eq. 2, default) or implicit_euler "
-                   "(backward Euler at 1/60 s steps, docs/implicit.md; garments only at "
-                   "--edge-cm 3 or coarser: finer, Newton does not converge and a drape "
+                   "(backward Euler at 1/60 s steps, docs/implicit.md; it meshes at 3 cm unless "
+                   "--edge-cm says otherwise: finer, Newton does not converge and a drape "
                    "takes hours)")  # fmt: skip
     p.add_argument("--strain-damping", type=float, default=None, metavar="S",
                    help="the membrane's strain-rate damping in s (default 4e-6; 0: off; it "
@@ -207,7 +209,7 @@ def _add_drape_parsers(sub) -> None:
 
 def cmd_drape(args) -> int:
     from sandbox.mannequin.measurements import KEYS
-    from sandbox.scene.drape import check_garment, drape, garment_names
+    from sandbox.scene.drape import IMPLICIT_GARMENT_EDGE_M, check_garment, drape, garment_names
 
     if args.list:  # before Taichi starts: its banner would mix into the list
         for name in garment_names():
@@ -220,6 +222,9 @@ def cmd_drape(args) -> int:
     check_garment(args.garment)
     if args.out is None:
         raise SandboxError("drape: --out DIR is required")
+    if args.edge_cm is None:  # implicit drapes converge only on coarser meshes
+        implicit = args.integrator == "implicit_euler"
+        args.edge_cm = IMPLICIT_GARMENT_EDGE_M * 100.0 if implicit else 1.0
     if not args.edge_cm > 0:
         raise SandboxError(f"--edge-cm {args.edge_cm}: must be a positive length in cm")
     measurements = {k: getattr(args, k) for k in KEYS if getattr(args, k) is not None}

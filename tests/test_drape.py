@@ -143,6 +143,27 @@ def test_implicit_drape_sews_and_drapes_the_tube_skirt(mannequin, tmp_path):
     assert m["integrator_warning"] is None  # 5 cm: coarser than the measured limit
 
 
+def test_cli_implicit_drape_meshes_at_3_cm_unless_told(monkeypatch, tmp_path):
+    """`drape --integrator implicit_euler` without --edge-cm meshes at 3 cm (1 cm would
+    take hours); an explicit --edge-cm wins; symplectic Euler keeps 1 cm."""
+    import sandbox.scene.drape as drape_module
+
+    edges = []
+
+    def fake_drape(garment, **kw):
+        edges.append((kw["integrator"], kw["edge_length_m"]))
+        raise drape_module.SandboxError("stop here")
+
+    monkeypatch.setattr(drape_module, "drape", fake_drape)
+    base = ["drape", "a-line-skirt", "--out", str(tmp_path), "--quiet"]
+    assert main([*base, "--integrator", "implicit_euler"]) == 2
+    assert main([*base, "--integrator", "implicit_euler", "--edge-cm", "2"]) == 2
+    assert main(base) == 2
+    assert edges == [("implicit_euler", pytest.approx(0.03)),
+                     ("implicit_euler", pytest.approx(0.02)),
+                     ("symplectic_euler", pytest.approx(0.01))]  # fmt: skip
+
+
 def test_implicit_drape_on_a_fine_mesh_warns():
     """implicit_euler finer than 3 cm gets a warning that names the limit and the way out."""
     note = implicit_mesh_warning("implicit_euler", 0.01)
