@@ -196,11 +196,17 @@ def _add_drape_parsers(sub) -> None:
                    help="3 cm meshes, jersey everywhere, 4 s limit (a smoke test)")  # fmt: skip
     p.add_argument("--size", type=int, default=12, help="mannequin database size (default 12)")
     p.add_argument("--only", nargs="+", default=None, metavar="GARMENT", help="a subset")
-    p.add_argument("--edge-cm", type=float, default=None, help="mesh edge in cm (default 1)")
+    p.add_argument("--edge-cm", type=float, default=None,
+                   help="mesh edge in cm (default 1; 3 with --integrator "
+                   "implicit_euler)")  # fmt: skip
+    p.add_argument("--integrator", choices=["symplectic_euler", "implicit_euler"],
+                   default="symplectic_euler",
+                   help="symplectic_euler (default) or implicit_euler "
+                   "(docs/implicit.md)")  # fmt: skip
     p.add_argument("--meshes", action="store_true", help="also write each garment's meshes")
     p.add_argument("--resume", action="store_true",
                    help="read back the garments already draped in --out with the same size, "
-                   "mesh edge and fabric instead of draping them again")  # fmt: skip
+                   "mesh edge, fabric and integrator instead of draping them again")  # fmt: skip
     p.add_argument("--jobs", "-j", type=int, default=1, metavar="N",
                    help="drape N garments at once, each in its own process with the CPU's "
                    "threads shared out (default 1)")  # fmt: skip
@@ -285,7 +291,7 @@ def cmd_gallery(args) -> int:
     paths = gallery(args.out, quick=args.quick, size=args.size, names=args.only,
                     edge_length_m=None if args.edge_cm is None else args.edge_cm / 100.0,
                     meshes=args.meshes, progress=not args.quiet,
-                    resume=args.resume, jobs=args.jobs)  # fmt: skip
+                    resume=args.resume, jobs=args.jobs, integrator=args.integrator)  # fmt: skip
     for p in paths:
         print(p)
     return 0

@@ -162,6 +162,8 @@ def test_the_gallery_reads_back_drapes_already_written_with_the_same_settings(tm
     assert earlier_drape(folder, "tank-top", 12, 0.02) is None  # another mesh edge
     assert earlier_drape(folder, "tank-top", 12, 0.01, "jersey") is None  # another fabric
     assert earlier_drape(folder, "camisole", 12, 0.01) is None  # another garment
+    # no "integrator" key: symplectic Euler's (the only one before the key was written)
+    assert earlier_drape(folder, "tank-top", 12, 0.01, integrator="implicit_euler") is None
     assert earlier_drape(tmp_path / "none", "tank-top", 12, 0.01) is None
     sheet, table, _ = gallery(tmp_path, names=["tank-top"], resume=True, progress=False)
     text = table.read_text()

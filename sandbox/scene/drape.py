@@ -859,6 +859,7 @@ def drape_metrics(scene, result, *, build_s: float = 0.0) -> dict:
         mannequin_size=mannequin.size,
         mannequin_measurements_cm=_measurements_dict(mannequin),
         edge_length_m=getattr(scene, "edge_length_m", None),
+        integrator=scene.spec.simulation.integrator,
         integrator_warning=getattr(scene, "integrator_warning", None),
         damping_per_s=float(scene.control.damping_per_s[None]),
         self_collision=scene.model.self_collider is not None,

@@ -40,6 +40,9 @@ TILE_PX = 320
 COLUMNS = 5
 
 
+INTEGRATORS = ("symplectic_euler", "implicit_euler")
+
+
 def gallery(
     out_dir="docs/gallery",
     *,
@@ -51,6 +54,7 @@ def gallery(
     progress: bool = True,
     resume: bool = False,
     jobs: int = 1,
+    integrator: str = "symplectic_euler",
 ) -> list[Path]:
     """Drape the library's garments and write the contact sheet and the table.
 
@@ -58,9 +62,17 @@ def gallery(
     ``resume``: read back a garment already draped in ``out_dir`` with the same settings
     (:func:`earlier_drape`). ``jobs`` > 1: drape that many garments at once, each in its
     own ``python -m sandbox drape`` process (:func:`drape_in_processes`) with the CPU's
-    threads shared out, then read them back. Returns the written paths (sheet, table, JSON).
+    threads shared out, then read them back. ``integrator``: ``"implicit_euler"`` drapes
+    with backward Euler, on 3 cm meshes unless ``edge_length_m`` says otherwise
+    (:data:`~sandbox.scene.drape.IMPLICIT_GARMENT_EDGE_M`). Returns the written paths
+    (sheet, table, JSON).
     """
-    from sandbox.scene.drape import drape, garment_names, make_mannequin
+    from sandbox.scene.drape import (
+        IMPLICIT_GARMENT_EDGE_M,
+        drape,
+        garment_names,
+        make_mannequin,
+    )
 
     library = garment_names()
     if not library:
@@ -72,15 +84,23 @@ def gallery(
                            f"{', '.join(library)}")  # fmt: skip
     if not (isinstance(jobs, int) and jobs >= 1):
         raise SandboxError(f"gallery: jobs must be a whole number >= 1, got {jobs!r}")
+    if integrator not in INTEGRATORS:
+        raise SandboxError(f"gallery: integrator must be one of {', '.join(INTEGRATORS)}, got "
+                           f"{integrator!r}")  # fmt: skip
+    implicit = integrator == "implicit_euler"
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     mannequin = None  # built for the first garment draped in this process
-    edge = edge_length_m if edge_length_m is not None else (QUICK_EDGE_M if quick else 0.01)
+    edge = edge_length_m
+    if edge is None:
+        edge = QUICK_EDGE_M if quick else (IMPLICIT_GARMENT_EDGE_M if implicit else 0.01)
     options = {"fabric": QUICK_FABRIC, "time_limit_s": QUICK_TIME_LIMIT_S} if quick else {}
     fabric = options.get("fabric")
+    if implicit:
+        options["integrator"] = integrator
 
     def read_back(names):  # {name: (metrics, front image)} of those already in out
-        found = {n: earlier_drape(out / n, n, size, edge, fabric) for n in names}
+        found = {n: earlier_drape(out / n, n, size, edge, fabric, integrator) for n in names}
         return {n: got for n, got in found.items() if got is not None}
 
     earlier = read_back(chosen) if resume else {}
@@ -132,7 +152,10 @@ def gallery(
                   flush=True)  # fmt: skip
     fabrics = f", every garment in {QUICK_FABRIC}" if quick else ", each garment's fabric"
     header = f"Size {size} mannequin, {'quick: ' if quick else ''}{edge * 100:g} cm mesh edges"
+    if implicit:
+        header += ", implicit Euler (backward Euler at 1/60 s steps)"
     header += fabrics + ". Reproduce: `python -m sandbox gallery" + (" --quick" if quick else "")
+    header += " --integrator implicit_euler" if implicit else ""
     header += (f" --size {size}" if size != 12 else "") + (f" --jobs {jobs}" if jobs > 1 else "")
     header += "`"
     if earlier:
@@ -147,7 +170,8 @@ def gallery(
 
 def drape_in_processes(names, out_dir, *, size: int, edge_length_m: float, jobs: int,
                        meshes: bool = False, progress: bool = True, fabric: str | None = None,
-                       time_limit_s: float | None = None) -> dict[str, str]:  # fmt: skip
+                       time_limit_s: float | None = None,
+                       integrator: str = "symplectic_euler") -> dict[str, str]:  # fmt: skip
     """Drape ``names`` with ``python -m sandbox drape`` processes, ``jobs`` at a time, each
     into ``out_dir/<name>`` (its output in ``drape.log`` there).
 
@@ -168,6 +192,7 @@ def drape_in_processes(names, out_dir, *, size: int, edge_length_m: float, jobs:
         flags += ["--fabric", fabric]
     if time_limit_s is not None:
         flags += ["--time-limit", f"{time_limit_s:.10g}"]
+    flags += ["--integrator", integrator]
     if not meshes:
         flags.append("--no-meshes")
     waiting, running, failed = list(names), {}, {}
@@ -201,10 +226,12 @@ def drape_in_processes(names, out_dir, *, size: int, edge_length_m: float, jobs:
     return failed
 
 
-def earlier_drape(folder, name: str, size: int, edge_length_m: float, fabric: str | None = None):
+def earlier_drape(folder, name: str, size: int, edge_length_m: float, fabric: str | None = None,
+                  integrator: str = "symplectic_euler"):  # fmt: skip
     """``(metrics, front image)`` of a drape of garment ``name`` already written to
     ``folder`` (``metrics.json`` and ``render.png``) on the database mannequin ``size`` with
-    mesh edge ``edge_length_m`` [m] (and ``fabric``, if not None), or None when there is none,
+    mesh edge ``edge_length_m`` [m] (and ``fabric``, if not None) by ``integrator`` (metrics
+    without the key are symplectic Euler's: it was the only one), or None when there is none,
     it was made otherwise (metrics without ``edge_length_m`` included), or its files cannot
     be read (a warning says which)."""
     import imageio.v3 as iio
@@ -233,6 +260,8 @@ def earlier_drape(folder, name: str, size: int, edge_length_m: float, fabric: st
         differs.append(f"mesh edge {edge * 100:g} cm")
     if fabric is not None and m.get("fabric") != fabric:
         differs.append(f"fabric {m.get('fabric')}")
+    if m.get("integrator", "symplectic_euler") != integrator:
+        differs.append(f"integrator {m.get('integrator')}")
     if "vertex_count" not in m or "wall_time_s" not in m:
         differs.append("no vertex count or wall time")
     if differs:
