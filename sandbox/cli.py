@@ -15,6 +15,7 @@ from pathlib import Path
 
 from sandbox.errors import SandboxError
 from sandbox.precision import add_precision_flags
+from sandbox.scene.spec import INTEGRATORS
 
 log = logging.getLogger("sandbox")
 
@@ -168,7 +169,7 @@ def _add_drape_parsers(sub) -> None:
     p.add_argument("--fast-sew", action="store_true",
                    help="no self-collision while sewing: about 3x faster, but panels may "
                    "pass through each other and keep those crossings")  # fmt: skip
-    p.add_argument("--integrator", choices=["symplectic_euler", "implicit_euler"],
+    p.add_argument("--integrator", choices=INTEGRATORS,
                    default="symplectic_euler",
                    help="symplectic_euler (the paper's Eq. 2, default) or implicit_euler "
                    "(backward Euler at 1/60 s steps, docs/implicit.md; it meshes at 3 cm unless "
@@ -200,7 +201,7 @@ def _add_drape_parsers(sub) -> None:
     p.add_argument("--edge-cm", type=float, default=None,
                    help="mesh edge in cm (default 1; 3 with --integrator "
                    "implicit_euler)")  # fmt: skip
-    p.add_argument("--integrator", choices=["symplectic_euler", "implicit_euler"],
+    p.add_argument("--integrator", choices=INTEGRATORS,
                    default="symplectic_euler",
                    help="symplectic_euler (default) or implicit_euler "
                    "(docs/implicit.md)")  # fmt: skip

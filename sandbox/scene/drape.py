@@ -321,13 +321,19 @@ def build_drape(
         make_solver,
         stable_dt_estimate,
     )
-    from sandbox.scene.spec import CollisionSpec, SceneSpec, SimulationSpec, StopSpec
+    from sandbox.scene.spec import (
+        INTEGRATORS,
+        CollisionSpec,
+        SceneSpec,
+        SimulationSpec,
+        StopSpec,
+    )
     from sandbox.sim.builder import ModelBuilder
 
     pattern = resolve_pattern(pattern, mannequin)
     if edge_length_m is not None and not (edge_length_m > 0 and math.isfinite(edge_length_m)):
         raise SandboxError(f"edge length must be a positive number of metres, got {edge_length_m}")
-    if integrator not in ("symplectic_euler", "implicit_euler"):
+    if integrator not in INTEGRATORS:
         raise SandboxError(f"integrator must be symplectic_euler or implicit_euler, got "
                            f"{integrator!r}")  # fmt: skip
     material = material_for(pattern, fabric)

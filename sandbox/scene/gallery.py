@@ -40,9 +40,6 @@ TILE_PX = 320
 COLUMNS = 5
 
 
-INTEGRATORS = ("symplectic_euler", "implicit_euler")
-
-
 def gallery(
     out_dir="docs/gallery",
     *,
@@ -73,6 +70,7 @@ def gallery(
         garment_names,
         make_mannequin,
     )
+    from sandbox.scene.spec import INTEGRATORS
 
     library = garment_names()
     if not library:
