@@ -217,7 +217,7 @@ def _add_drape_parsers(sub) -> None:
 
 def cmd_drape(args) -> int:
     from sandbox.mannequin.measurements import KEYS
-    from sandbox.scene.drape import IMPLICIT_GARMENT_EDGE_M, check_garment, drape, garment_names
+    from sandbox.scene.drape import check_garment, default_edge_m, drape, garment_names
 
     if args.list:  # before Taichi starts: its banner would mix into the list
         for name in garment_names():
@@ -231,8 +231,7 @@ def cmd_drape(args) -> int:
     if args.out is None:
         raise SandboxError("drape: --out DIR is required")
     if args.edge_cm is None:  # implicit drapes converge only on coarser meshes
-        implicit = args.integrator == "implicit_euler"
-        args.edge_cm = IMPLICIT_GARMENT_EDGE_M * 100.0 if implicit else 1.0
+        args.edge_cm = default_edge_m(args.integrator) * 100.0
     if not args.edge_cm > 0:
         raise SandboxError(f"--edge-cm {args.edge_cm}: must be a positive length in cm")
     measurements = {k: getattr(args, k) for k in KEYS if getattr(args, k) is not None}

@@ -839,6 +839,12 @@ def untangle_state(scene, when: str = "") -> dict:
     return out
 
 
+def default_edge_m(integrator: str) -> float:
+    """The mesh edge [m] the CLI and the gallery use when none is given: 1 cm, or
+    :data:`IMPLICIT_GARMENT_EDGE_M` with ``implicit_euler``."""
+    return IMPLICIT_GARMENT_EDGE_M if integrator == "implicit_euler" else 0.01
+
+
 def implicit_mesh_warning(integrator: str, edge_length_m: float | None) -> str | None:
     """The warning for an ``implicit_euler`` drape meshed finer than
     :data:`IMPLICIT_GARMENT_EDGE_M`, or None."""

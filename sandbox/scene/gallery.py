@@ -64,12 +64,7 @@ def gallery(
     (:data:`~sandbox.scene.drape.IMPLICIT_GARMENT_EDGE_M`). Returns the written paths
     (sheet, table, JSON).
     """
-    from sandbox.scene.drape import (
-        IMPLICIT_GARMENT_EDGE_M,
-        drape,
-        garment_names,
-        make_mannequin,
-    )
+    from sandbox.scene.drape import default_edge_m, drape, garment_names, make_mannequin
     from sandbox.scene.spec import INTEGRATORS
 
     library = garment_names()
@@ -91,7 +86,7 @@ def gallery(
     mannequin = None  # built for the first garment draped in this process
     edge = edge_length_m
     if edge is None:
-        edge = QUICK_EDGE_M if quick else (IMPLICIT_GARMENT_EDGE_M if implicit else 0.01)
+        edge = QUICK_EDGE_M if quick else default_edge_m(integrator)
     options = {"fabric": QUICK_FABRIC, "time_limit_s": QUICK_TIME_LIMIT_S} if quick else {}
     fabric = options.get("fabric")
     if implicit:
