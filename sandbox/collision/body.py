@@ -31,6 +31,9 @@ MAX_CELLS_PER_QUERY = 512
 # triangle within h of x1 and every triangle its step crosses (the crossing point is within
 # |x1 - x| of x1): one cell, each triangle once, instead of the cells of its box.
 BIN_PAD_THICKNESSES = 2.0
+CREASE_COS = 0.98
+"""Two faces meet in a crease (:meth:`BodyCollider.contact_planes`) when their normals
+differ by more than this cosine (11°); flatter neighbours share the nearest face's plane."""
 
 
 @ti.data_oriented
@@ -300,6 +303,87 @@ class BodyCollider:
                                 best_w = w
                 cell = self._next_cell(cell, lo, hi)
         return best, best_n, best_w
+
+    @ti.func
+    def contact_planes(self, x, reach):
+        """Up to two body planes that cloth at x must stay in front of, from the faces
+        within ``reach`` [m] of x.
+
+        Returns ``(count, n1, o1, n2, o2)``: n the faces' outward unit normals and o
+        offsets such that n·y − o is the distance of y in front of the plane less the
+        thickness (≥ 0 keeps the thickness). Plane 1 is the nearest face's. Plane 2, when
+        there is one, is the nearest face that meets it in a concave crease (an armpit,
+        under the bust): its normal differs by more than ``CREASE_COS`` and the nearest
+        point on face 1 is in front of it, so a vertex sliding along face 1 cannot pass
+        through it. Across a convex edge (the shoulder ridge) the second face's plane would
+        cut into face 1, and it is not used. An open surface's normals are turned to the
+        side x is on. The implicit solver keeps cloth in front of these planes with a
+        penalty in its step energy (:mod:`sandbox.sim.implicit`), so contact acts inside the
+        Newton solve, where cloth can slide along the body instead of being stopped after.
+        """
+        lo = self._cell_of(x - reach)
+        hi = self._cell_of(x + reach)
+        best = reach
+        count = 0
+        n1 = ti.Vector([0.0, 0.0, 1.0])
+        o1 = 0.0
+        q1 = x
+        cell = lo
+        for _ in range(self._cells_to_visit(lo, hi)):
+            cid = self._cell_index(cell)
+            for e in range(self.cell_start[cid], self.cell_start[cid + 1]):
+                t = self.cell_entries[e]
+                r = self.tri_radius[t] + best
+                if (x - self.tri_centre[t]).norm_sqr() <= r * r:
+                    q = self._closest_on(t, x)
+                    d = (x - q).norm()
+                    if d < best:
+                        best = d
+                        count = 1
+                        q1 = q
+                        n1, o1 = self._face_plane(t, x)
+            cell = self._next_cell(cell, lo, hi)
+        n2 = n1
+        o2 = o1
+        if count == 1:
+            best = reach
+            cell = lo
+            for _ in range(self._cells_to_visit(lo, hi)):
+                cid = self._cell_index(cell)
+                for e in range(self.cell_start[cid], self.cell_start[cid + 1]):
+                    t = self.cell_entries[e]
+                    r = self.tri_radius[t] + best
+                    if (x - self.tri_centre[t]).norm_sqr() <= r * r:
+                        n, o = self._face_plane(t, x)
+                        if n.dot(n1) < CREASE_COS and n.dot(q1) - o >= 0.0:
+                            d = (x - self._closest_on(t, x)).norm()
+                            if d < best:
+                                best = d
+                                count = 2
+                                n2 = n
+                                o2 = o
+                cell = self._next_cell(cell, lo, hi)
+        h = self.thickness[None]
+        return count, n1, o1 + h, n2, o2 + h
+
+    @ti.func
+    def _closest_on(self, t, x):
+        """The point of body triangle t closest to x."""
+        a = self.body_x[self.tri[t][0]]
+        b = self.body_x[self.tri[t][1]]
+        c = self.body_x[self.tri[t][2]]
+        return closest_point_on_triangle(x, a, b, c)
+
+    @ti.func
+    def _face_plane(self, t, x):
+        """(n, o): triangle t's plane n·y = o, n outward (an open surface: towards x)."""
+        n = self.tri_normal[t]
+        o = self.tri_offset[t]
+        if ti.static(not self.closed):
+            if n.dot(x) < o:
+                n = -n
+                o = -o
+        return n, o
 
     @ti.func
     def respond(self, x, v, dt):
