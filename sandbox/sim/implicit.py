@@ -510,6 +510,13 @@ class ImplicitEulerSolver:
                     hess += f / s * (tangent - (u / s).outer_product(u / s))
         return e, g, hess
 
+    @ti.func
+    def _update_contact_force(self, i, xi):
+        """λ_i := the penalty's normal force at xi [N] (both planes), for the friction."""
+        phi = self.c_n[i].dot(xi) - self.c_o[i]
+        phi2 = self.c_n2[i].dot(xi) - self.c_o2[i]
+        self.c_lam[i] = self.c_k[i] * ti.max(-phi, 0.0) + self.c_k2[i] * ti.max(-phi2, 0.0)
+
     @ti.kernel
     def _contact_planes(self, x: ti.template()):
         """Each free vertex's contact planes at x (``BodyCollider.contact_planes``: the
@@ -654,6 +661,7 @@ class ImplicitEulerSolver:
                 g += mi * ((xi - self.xh[i]) / (h * h) + self.gamma[None] * (xi - self.x0[i]) / h)
                 d += mi * c_mass * ti.Matrix.identity(REAL, 3)
                 if ti.static(self.has_contact):
+                    self._update_contact_force(i, xi)
                     _, gc, hc = self._contact_terms(i, xi)
                     g += gc
                     d += hc
@@ -944,11 +952,8 @@ class ImplicitEulerSolver:
             v = ti.Vector.zero(REAL, 3)
             if m.particle_inv_mass[i] > 0.0:
                 v = (self.x[i] - self.x0[i]) / h
-                if ti.static(self.has_contact):  # the contact force, for next step's friction
-                    phi = self.c_n[i].dot(self.x[i]) - self.c_o[i]
-                    phi2 = self.c_n2[i].dot(self.x[i]) - self.c_o2[i]
-                    self.c_lam[i] = self.c_k[i] * ti.max(-phi, 0.0)
-                    self.c_lam[i] += self.c_k2[i] * ti.max(-phi2, 0.0)
+                if ti.static(self.has_contact):  # the contact force, for next step's start
+                    self._update_contact_force(i, self.x[i])
                 if ti.static(len(m.colliders) > 0):
                     # the colliders work in the state's precision (as in the explicit solver)
                     xs = ti.cast(self.x0[i], float)
