@@ -34,6 +34,14 @@ from sandbox.errors import SandboxError
 log = logging.getLogger(__name__)
 
 DRAPE_DAMPING_PER_S = 2.0
+SEAM_REFERENCE_EDGE_M = 0.01
+"""A seam spring is as stiff as the cloth (its larger stretch stiffness [N/m]) on a mesh of
+this edge [m]. On a coarser mesh each spring stands for a longer piece of seam and carries
+more of the garment's weight, so its stiffness grows with the edge: the seam's stiffness
+per length, and its gap under the weight, do not depend on the mesh. At 3 cm with the
+cloth's stiffness, the T-shirt's and the long-sleeve shirt's shoulder seams hung 2.0-2.1 mm
+open and the raglan top's 2.5 mm (implicit gallery of 3 Dec 2026). A finer mesh keeps the
+cloth's stiffness."""
 SEW_GAP_M = 2e-3
 """Sewing ends when every seam spring is shorter than this [m] (or at SEW_TIME_LIMIT_S)."""
 SEW_TIME_LIMIT_S = 1.5
@@ -360,7 +368,9 @@ def build_drape(
             where=f"{pattern.source}: panel {name!r}",
             meta={"mesher": "panel_mesh"},
         )
-    seam_k = max(material.stretch_u_N_m, material.stretch_v_N_m)
+    edge = pattern.mesh_edge_m if edge_length_m is None else float(edge_length_m)
+    seam_k = max(material.stretch_u_N_m, material.stretch_v_N_m) * max(
+        1.0, edge / SEAM_REFERENCE_EDGE_M)  # fmt: skip
     names = list(meshes)
     if sew_pattern:
         for seam in pattern_seam_sides(pattern, meshes, index):
