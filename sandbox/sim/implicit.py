@@ -77,6 +77,10 @@ steps 20-150 times a step and the sewing of the A-line skirt diverge (ad-hoc run
 CONTACT_REACH_M = 2e-2
 """A vertex gets a contact plane for the step when a body face is within this distance [m]
 plus twice its predicted motion (|x̂ − x_n|) of its start."""
+CONTACT_REPLANS = 2
+"""A solution with a vertex behind the plane of its nearest body face (inside the body)
+is solved again, at most this many times a step, with that vertex's planes taken where it
+ended and its penalty 10 times stiffer (:meth:`ImplicitEulerSolver._replan_inside`)."""
 FRICTION_SLIP_M_S = 1e-3
 """Friction's smoothing speed ε_v [m/s]: below it the friction force grows linearly with
 the tangential speed (sticking creeps at most this fast), above it it is μ λ (Coulomb)."""
@@ -168,12 +172,12 @@ class ImplicitEulerSolver:
         self.bad_step = ti.field(ti.i32, shape=())
         self.bad_vertex = ti.field(ti.i32, shape=())
         self.c_n = self.c_o = self.c_n2 = self.c_o2 = self.c_k = self.c_k2 = None
-        self.c_mu = self.c_lam = self.c_hess = None
+        self.c_mu = self.c_lam = self.c_hess = self.c_h = None
         self.has_contact = bool(model.colliders)
         if self.has_contact:  # body contact in the step energy (only for scenes with bodies)
             self.c_n, self.c_n2, self.c_hess = vec(n), vec(n), mat(n)
-            self.c_o, self.c_o2, self.c_k, self.c_k2, self.c_mu, self.c_lam = (
-                ti.field(REAL, shape=n) for _ in range(6))  # fmt: skip
+            self.c_o, self.c_o2, self.c_k, self.c_k2, self.c_mu, self.c_lam, self.c_h = (
+                ti.field(REAL, shape=n) for _ in range(7))  # fmt: skip
         self.self_collider = model.self_collider  # None switches the passes off (sewing)
         self.sc_x = self.sc_v = None  # state-precision copies for a self-collision pass
         self.pattern = self.factor = self.dx_np = None
@@ -206,22 +210,30 @@ class ImplicitEulerSolver:
         step_norm = error = tol = math.inf
         line_search_cuts = 0
         previous = math.inf
+        replans = 0
         for _ in range(self.max_newton):
-            e0 = float(self._grad_hess()[0])
+            e0 = float(self._grad_hess(1)[0])  # friction's normal force from this iterate
             newton += 1
             cg_total += self._solve()
             direct = self.pattern is not None  # then Δx comes from dx_np
-            step_norm, max_move, slope = self._post_solve(self._dx_source(), direct)
+            stop = int(self.has_contact and direct)  # the CG path's Δx has no copy to go back to
+            step_norm, max_move, slope = self._post_solve(self._dx_source(), direct, stop)
+            if stop and slope >= 0.0:  # the cut step does not descend: take Newton's own
+                step_norm, max_move, slope = self._post_solve(self._dx_source(), direct, 0)
             tol = self.tol_m_s * dt + self.rel_tol * max_move
             error = newton_error_estimate(step_norm, previous, tol)
             previous = step_norm
             if error <= tol:
                 self._trial(1.0)
                 self._accept()
+                if self.has_contact and replans < CONTACT_REPLANS and self._replan_inside():
+                    replans += 1  # a new energy: its own contraction estimate
+                    previous = math.inf
+                    continue
                 converged = True
                 break
             line_search_cuts += self._line_search(e0, slope)
-        res = float(self._grad_hess()[1])  # residual at the accepted point, for the stats
+        res = float(self._grad_hess(0)[1])  # residual at the accepted point, for the stats
         self._finish(state_out.x, state_out.v, index)
         self.last = {
             "newton_iterations": newton,
@@ -232,6 +244,7 @@ class ImplicitEulerSolver:
             "tolerance_m": tol,
             "residual_force_over_weight": res,
             "line_search_halvings": line_search_cuts,
+            "contact_replans": replans,
             "converged": converged,
             "wall_s": time.perf_counter() - t0,
         }
@@ -403,11 +416,11 @@ class ImplicitEulerSolver:
         if self.has_contact:
             self._contact_planes(self.x0)
         self._trial_gravity(0.0)
-        self._grad_hess()
+        self._grad_hess(0)
         self._cg_init()
         self._cg_iter()
         self._cg_loop(1, 0.0)
-        self._post_solve(self._dx_source(), self.pattern is not None)
+        self._post_solve(self._dx_source(), self.pattern is not None, 0)
         self._trial(0.0)
         self._internal_energy_kernel(state.x)
         if self.pattern is not None:
@@ -486,14 +499,14 @@ class ImplicitEulerSolver:
             k2 = self.c_k2[i]  # the second plane of a crease (0: none)
             n2 = self.c_n2[i]
             phi2 = n2.dot(xi) - self.c_o2[i]
-            if phi2 < 0.0:
+            if phi2 <= 0.0:  # at 0 the Hessian of the side the solve moves to
                 e += 0.5 * k2 * phi2 * phi2
                 g += k2 * phi2 * n2
                 hess += k2 * n2.outer_product(n2)
             n = self.c_n[i]
             nn = n.outer_product(n)
             phi = n.dot(xi) - self.c_o[i]
-            if phi < 0.0:
+            if phi <= 0.0:
                 e += 0.5 * k * phi * phi
                 g += k * phi * n
                 hess += k * nn
@@ -515,11 +528,74 @@ class ImplicitEulerSolver:
         return e, g, hess
 
     @ti.func
-    def _update_contact_force(self, i, xi):
-        """λ_i := the penalty's normal force at xi [N] (both planes), for the friction."""
-        phi = self.c_n[i].dot(xi) - self.c_o[i]
-        phi2 = self.c_n2[i].dot(xi) - self.c_o2[i]
-        self.c_lam[i] = self.c_k[i] * ti.max(-phi, 0.0) + self.c_k2[i] * ti.max(-phi2, 0.0)
+    def _stop_at_plane(self, xi, d, n, o):
+        """The step d of a vertex at xi, cut so that it does not cross the plane n·y = o
+        from the front (unchanged if it starts on or behind the plane, or stays in front)."""
+        phi0 = n.dot(xi) - o
+        phi1 = phi0 + n.dot(d)
+        out = d
+        if phi0 > 0.0 and phi1 < 0.0:
+            out = d - phi1 * n
+        return out
+
+    @ti.kernel
+    def _replan_inside(self) -> ti.i32:
+        """Free vertices that the solution x leaves inside the body get a penalty 10 times
+        stiffer: those deeper than the thickness behind one of their step's planes (the
+        penalty yielded to a stronger pull, e.g. a tight armhole pulled into the armpit)
+        keep their planes; those behind the planes of the body faces nearest to x (their
+        step's planes were other faces') get these planes. Returns how many changed."""
+        m = self.model
+        count = 0
+        for i in range(m.particle_count):
+            if m.particle_inv_mass[i] > 0.0:
+                xi = self.x[i]
+                k = self.c_k[i]
+                if k > 0.0:
+                    depth = ti.max(self.c_o[i] - self.c_n[i].dot(xi),
+                                   self.c_o2[i] - self.c_n2[i].dot(xi))  # fmt: skip
+                    if self.c_k2[i] == 0.0:
+                        depth = self.c_o[i] - self.c_n[i].dot(xi)
+                    if depth > 2.0 * self.c_h[i]:
+                        self.c_k[i] = 10.0 * k
+                        self.c_k2[i] *= 10.0
+                        count += 1
+                        continue
+                xs = ti.cast(xi, float)
+                for c in ti.static(m.colliders):
+                    found, n, o, n2, o2 = c.contact_planes(xs, ti.cast(CONTACT_REACH_M, float))
+                    h = c.thickness[None]
+                    inside = found > 0 and n.dot(xs) < o - h
+                    if found == 2 and n2.dot(xs) < o2 - h:
+                        inside = True
+                    if inside:
+                        k_new = CONTACT_STIFFNESS * m.particle_mass[i] / (self.h[None] ** 2)
+                        k_new = 10.0 * ti.max(self.c_k[i], k_new)
+                        self.c_n[i] = ti.cast(n, REAL)
+                        self.c_o[i] = ti.cast(o, REAL)
+                        self.c_n2[i] = ti.cast(n2, REAL)
+                        self.c_o2[i] = ti.cast(o2, REAL)
+                        self.c_h[i] = ti.cast(h, REAL)
+                        self.c_mu[i] = ti.cast(c.mu_s[None], REAL)
+                        self.c_k[i] = k_new
+                        self.c_k2[i] = k_new if found == 2 else 0.0
+                        count += 1
+        return count
+
+    @ti.func
+    def _update_contact_force(self, i, xi, g):
+        """λ_i := the normal force [N] with which vertex i at xi presses on its planes, for
+        the friction: the part of −g (g the gradient of E without contact, so −g is the
+        force of inertia, cloth, seams and gravity) into each plane it touches (φ ≤ 0).
+        At the solution it is the penalty's force; unlike that, it is right at once for a
+        vertex that the solve has put exactly on its plane (φ = 0, no penalty yet)."""
+        lam = ti.cast(0.0, REAL)
+        if self.c_k[i] > 0.0:
+            if self.c_n[i].dot(xi) - self.c_o[i] <= 0.0:
+                lam += ti.max(self.c_n[i].dot(g), 0.0)
+            if self.c_k2[i] > 0.0 and self.c_n2[i].dot(xi) - self.c_o2[i] <= 0.0:
+                lam += ti.max(self.c_n2[i].dot(g), 0.0)
+        self.c_lam[i] = lam
 
     @ti.kernel
     def _contact_planes(self, x: ti.template()):
@@ -541,14 +617,12 @@ class ImplicitEulerSolver:
                     if count > 0 and n.dot(xs) - o < best:
                         best = n.dot(xs) - o
                         k = CONTACT_STIFFNESS * m.particle_mass[i] / (h * h)
-                        # a vertex that starts inside the thickness may not go deeper this
-                        # step, but is not pushed out by the penalty either (no shock from
-                        # a stiff penalty): the contact response after the solve does that
                         self.c_n[i] = ti.cast(n, REAL)
-                        self.c_o[i] = ti.min(ti.cast(o, REAL), self.c_n[i].dot(x[i]))
+                        self.c_o[i] = ti.cast(o, REAL)
                         self.c_n2[i] = ti.cast(n2, REAL)
-                        self.c_o2[i] = ti.min(ti.cast(o2, REAL), self.c_n2[i].dot(x[i]))
+                        self.c_o2[i] = ti.cast(o2, REAL)
                         self.c_mu[i] = ti.cast(c.mu_s[None], REAL)
+                        self.c_h[i] = ti.cast(c.thickness[None], REAL)
                         self.c_k[i] = k
                         self.c_k2[i] = k if count == 2 else 0.0
             if self.c_k[i] == 0.0:
@@ -584,7 +658,7 @@ class ImplicitEulerSolver:
         self._elastic_energy(x, self.energy_t)
 
     @ti.kernel
-    def _grad_hess(self) -> ti.types.vector(2, ti.f64):
+    def _grad_hess(self, update_force: ti.i32) -> ti.types.vector(2, ti.f64):
         """∇E, per-element Hessians, block-Jacobi preconditioner and E at self.x.
 
         Returns (E [J], the largest force residual over the vertex weight)."""
@@ -668,7 +742,8 @@ class ImplicitEulerSolver:
                 g += mi * ((xi - self.xh[i]) / (h * h) + self.gamma[None] * (xi - self.x0[i]) / h)
                 d += mi * c_mass * ti.Matrix.identity(REAL, 3)
                 if ti.static(self.has_contact):
-                    self._update_contact_force(i, xi)
+                    if update_force:
+                        self._update_contact_force(i, xi, g)
                     _, gc, hc = self._contact_terms(i, xi)
                     g += gc
                     d += hc
@@ -872,11 +947,16 @@ class ImplicitEulerSolver:
                 self.p[i] = self.z[i] + self.beta[None] * self.p[i]
 
     @ti.kernel
-    def _post_solve(self, dx_in: ti.types.ndarray(), load: ti.template()) -> ti.types.vector(
-        3, ti.f64
-    ):
+    def _post_solve(self, dx_in: ti.types.ndarray(), load: ti.template(),
+                    stop_at_planes: ti.i32) -> ti.types.vector(3, ti.f64):  # fmt: skip
         """(max|Δx| [m], max|x − x_n| [m], ∇E·Δx [J]) after a solve; with ``load``, Δx is
-        first read from ``dx_in`` (n, 3) (the direct solver's numpy result)."""
+        first read from ``dx_in`` (n, 3) (the direct solver's numpy result).
+
+        ``stop_at_planes``: a vertex in front of a contact plane whose Δx would cross it
+        stops on it instead (the normal part of its step is cut; it slides on). Newton's
+        model has no contact stiffness in front of a plane, so the full step would go deep
+        behind it, the energy would rise steeply and the line search would halve the whole
+        cloth's step many times (60 halvings a step on the sleeveless blouse at 3 cm)."""
         self.max_dx[None] = 0.0
         self.max_move[None] = 0.0
         self.slope[None] = 0.0
@@ -884,6 +964,13 @@ class ImplicitEulerSolver:
         for i in range(self.model.particle_count):
             if ti.static(load):
                 self.dx[i] = ti.Vector([dx_in[i, 0], dx_in[i, 1], dx_in[i, 2]], REAL)
+            if ti.static(self.has_contact):
+                if stop_at_planes and self.c_k[i] > 0.0:
+                    self.dx[i] = self._stop_at_plane(self.x[i], self.dx[i], self.c_n[i],
+                                                     self.c_o[i])  # fmt: skip
+                    if self.c_k2[i] > 0.0:
+                        self.dx[i] = self._stop_at_plane(self.x[i], self.dx[i], self.c_n2[i],
+                                                         self.c_o2[i])  # fmt: skip
             ti.atomic_max(self.max_dx[None], self.dx[i].norm())
             ti.atomic_max(self.max_move[None], (self.x[i] - self.x0[i]).norm())
             self.slope[None] += ti.cast(self.grad[i].dot(self.dx[i]), ti.f64)
@@ -959,8 +1046,6 @@ class ImplicitEulerSolver:
             v = ti.Vector.zero(REAL, 3)
             if m.particle_inv_mass[i] > 0.0:
                 v = (self.x[i] - self.x0[i]) / h
-                if ti.static(self.has_contact):  # the contact force, for next step's start
-                    self._update_contact_force(i, self.x[i])
                 if ti.static(len(m.colliders) > 0):
                     # the colliders work in the state's precision (as in the explicit solver)
                     xs = ti.cast(self.x0[i], float)
