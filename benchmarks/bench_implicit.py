@@ -39,7 +39,7 @@ from sandbox.precision import add_precision_flags
 # (tol_m_s, rel_tol, cg_tol) of the implicit cantilever runs: the defaults, then looser ones
 CANTILEVER_TOLS = [(1e-4, 0.0, 0.1), (1e-4, 0.0, 1e-3), (1e-3, 0.0, 0.1), (1e-4, 1e-2, 0.1)]
 SECTIONS = ("sizes", "presets", "fall", "oscillation", "cantilever")
-EXTRA = ("garment", "garment_fine")  # run only when named
+EXTRA = ("garment", "garment_fine", "drape_newton_both")  # run only when named
 G = 9.80665
 
 
@@ -303,6 +303,44 @@ def garment_fine(steps: int = 3):
               f"{last['error_estimate_m'] / last['tolerance_m']:.3g}, residual/weight "
               f"{last['residual_force_over_weight']:.2g}, converged {last['converged']}, "
               f"wall {last['wall_s']:.1f} s", flush=True)  # fmt: skip
+
+
+def drape_newton(name: str = "sleeveless-blouse", contact_in_energy: bool = True):
+    """Newton's convergence over a whole implicit drape at 3 cm (size 12, the garment's
+    fabric): steps, unconverged steps, mean Newton iterations, line-search halvings, replans,
+    and the drape's acceptance figures. ``contact_in_energy=False`` runs the solver as before
+    the nineteenth session (contact only after the solve)."""
+    from sandbox.scene.drape import build_drape, make_mannequin, resolve_pattern, run_drape
+
+    man = make_mannequin(12)
+    sc = build_drape(resolve_pattern(name, man), man, edge_length_m=0.03,
+                     integrator="implicit_euler")  # fmt: skip
+    s = sc.solver
+    s.has_contact = contact_in_energy  # read when the kernels compile (first step)
+    rows = []
+    step = s.step
+
+    def logged(*args, **kw):
+        step(*args, **kw)
+        last = s.last
+        rows.append((last["newton_iterations"], last["converged"], last["line_search_halvings"],
+                     last.get("contact_replans", 0)))  # fmt: skip
+
+    s.step = logged
+    s.advance = lambda st, c, dt, n, first=0: [logged(st, st, c, dt, first + k) for k in range(n)]
+    m = run_drape(sc, progress=False).metrics
+    a = np.array(rows, float)
+    print(f"drape_newton {name} 3 cm, contact in energy {contact_in_energy}: {len(a)} steps, "
+          f"{int((a[:, 1] == 0).sum())} unconverged, Newton mean {a[:, 0].mean():.1f}, "
+          f"line-search halvings {int(a[:, 2].sum())}, replans {int(a[:, 3].sum())}; seam gap "
+          f"{m['seam_gap_max_m'] * 1e3:.2f} mm, inside {m['vertices_inside_body']}, pairs "
+          f"{m['intersecting_triangle_pairs']}, wall {m['total_wall_time_s']:.0f} s",
+          flush=True)  # fmt: skip
+
+
+def drape_newton_both():
+    drape_newton(contact_in_energy=True)
+    drape_newton(contact_in_energy=False)
 
 
 def main() -> None:

@@ -248,3 +248,56 @@ def test_the_body_grid_lists_each_cells_triangles_in_order():
     assert unsorted_cells(body) == 0
     body.update(v * 1.1)  # a resize rebuilds it
     assert unsorted_cells(body) == 0
+
+
+def _l_prism():
+    """A closed L-shaped prism (unit squares: x, y in the L, z in [0, 1]), outward faces."""
+    import trimesh
+
+    ring = [(0, 0), (2, 0), (2, 1), (1, 1), (1, 2), (0, 2)]
+    v = np.array([(x, y, z) for z in (0.0, 1.0) for x, y in ring], float)
+    f = [(0, i, i + 1) for i in range(1, 5)]  # bottom: a fan from (0, 0) (star-shaped L)
+    f += [(6, 6 + i + 1, 6 + i) for i in range(1, 5)]  # top
+    for i in range(6):
+        j = (i + 1) % 6
+        f += [(i, j, 6 + j), (i, 6 + j, 6 + i)]
+    mesh = trimesh.Trimesh(v, np.array(f), process=False)
+    trimesh.repair.fix_normals(mesh)
+    assert mesh.is_watertight and mesh.volume > 0
+    return np.asarray(mesh.vertices), np.asarray(mesh.faces)
+
+
+def test_contact_planes_add_a_crease_plane_only_where_the_body_is_concave():
+    """BodyCollider.contact_planes: near the L's inner corner (a concave crease) the nearest
+    face's plane and the other face's; near an outer corner (convex) the nearest face's
+    only, since the other face's plane would cut into it."""
+    import taichi as ti
+
+    from sandbox.collision.body import BodyCollider
+
+    v, t = _l_prism()
+    body = BodyCollider(v, t, thickness_m=0.0)
+    out = ti.field(float, shape=9)
+
+    @ti.kernel
+    def query(x: ti.types.vector(3, float), reach: float):
+        count, n1, o1, n2, o2 = body.contact_planes(x, reach)
+        out[0] = count
+        for k in ti.static(range(3)):
+            out[1 + k] = n1[k]
+            out[4 + k] = n2[k]
+        out[7] = o1
+        out[8] = o2
+
+    def planes(x, reach=0.5):
+        query(ti.Vector(x), reach)
+        r = out.to_numpy()
+        return int(r[0]), r[1:4], r[7], r[4:7], r[8]
+
+    count, n1, o1, n2, o2 = planes([1.2, 1.3, 0.5])  # in the inner corner
+    assert count == 2
+    assert np.allclose(n1, [1, 0, 0], atol=1e-6) and o1 == pytest.approx(1.0)  # face x = 1
+    assert np.allclose(n2, [0, 1, 0], atol=1e-6) and o2 == pytest.approx(1.0)  # face y = 1
+    count, n1, o1, *_ = planes([2.1, 0.9, 0.5])  # beside the outer corner (2, 1)
+    assert count == 1 and np.allclose(n1, [1, 0, 0], atol=1e-6) and o1 == pytest.approx(2.0)
+    assert planes([3.0, 3.0, 0.5])[0] == 0  # nothing within reach
