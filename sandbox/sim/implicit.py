@@ -77,10 +77,8 @@ steps 20-150 times a step and the sewing of the A-line skirt diverge (ad-hoc run
 CONTACT_REACH_M = 2e-2
 """A vertex gets a contact plane for the step when a body face is within this distance [m]
 plus twice its predicted motion (|x̂ − x_n|) of its start."""
-CONTACT_REPLANS = 2
-"""A solution with a vertex behind the plane of its nearest body face (inside the body)
-is solved again, at most this many times a step, with that vertex's planes taken where it
-ended and its penalty 10 times stiffer (:meth:`ImplicitEulerSolver._replan_inside`)."""
+CONTACT_STOP_AT_PLANES = True
+"""Cut a Newton step that would take a vertex across its contact plane (see _post_solve)."""
 FRICTION_SLIP_M_S = 1e-3
 """Friction's smoothing speed ε_v [m/s]: below it the friction force grows linearly with
 the tangential speed (sticking creeps at most this fast), above it it is μ λ (Coulomb)."""
@@ -172,12 +170,12 @@ class ImplicitEulerSolver:
         self.bad_step = ti.field(ti.i32, shape=())
         self.bad_vertex = ti.field(ti.i32, shape=())
         self.c_n = self.c_o = self.c_n2 = self.c_o2 = self.c_k = self.c_k2 = None
-        self.c_mu = self.c_lam = self.c_hess = self.c_h = None
+        self.c_mu = self.c_lam = self.c_hess = None
         self.has_contact = bool(model.colliders)
         if self.has_contact:  # body contact in the step energy (only for scenes with bodies)
             self.c_n, self.c_n2, self.c_hess = vec(n), vec(n), mat(n)
-            self.c_o, self.c_o2, self.c_k, self.c_k2, self.c_mu, self.c_lam, self.c_h = (
-                ti.field(REAL, shape=n) for _ in range(7))  # fmt: skip
+            self.c_o, self.c_o2, self.c_k, self.c_k2, self.c_mu, self.c_lam = (
+                ti.field(REAL, shape=n) for _ in range(6))  # fmt: skip
         self.self_collider = model.self_collider  # None switches the passes off (sewing)
         self.sc_x = self.sc_v = None  # state-precision copies for a self-collision pass
         self.pattern = self.factor = self.dx_np = None
@@ -210,13 +208,13 @@ class ImplicitEulerSolver:
         step_norm = error = tol = math.inf
         line_search_cuts = 0
         previous = math.inf
-        replans = 0
         for _ in range(self.max_newton):
             e0 = float(self._grad_hess(1)[0])  # friction's normal force from this iterate
             newton += 1
             cg_total += self._solve()
             direct = self.pattern is not None  # then Δx comes from dx_np
-            stop = int(self.has_contact and direct)  # the CG path's Δx has no copy to go back to
+            # the CG path's Δx has no copy to go back to
+            stop = int(self.has_contact and direct and CONTACT_STOP_AT_PLANES)
             step_norm, max_move, slope = self._post_solve(self._dx_source(), direct, stop)
             if stop and slope >= 0.0:  # the cut step does not descend: take Newton's own
                 step_norm, max_move, slope = self._post_solve(self._dx_source(), direct, 0)
@@ -226,10 +224,6 @@ class ImplicitEulerSolver:
             if error <= tol:
                 self._trial(1.0)
                 self._accept()
-                if self.has_contact and replans < CONTACT_REPLANS and self._replan_inside():
-                    replans += 1  # a new energy: its own contraction estimate
-                    previous = math.inf
-                    continue
                 converged = True
                 break
             line_search_cuts += self._line_search(e0, slope)
@@ -244,7 +238,6 @@ class ImplicitEulerSolver:
             "tolerance_m": tol,
             "residual_force_over_weight": res,
             "line_search_halvings": line_search_cuts,
-            "contact_replans": replans,
             "converged": converged,
             "wall_s": time.perf_counter() - t0,
         }
@@ -538,50 +531,6 @@ class ImplicitEulerSolver:
             out = d - phi1 * n
         return out
 
-    @ti.kernel
-    def _replan_inside(self) -> ti.i32:
-        """Free vertices that the solution x leaves inside the body get a penalty 10 times
-        stiffer: those deeper than the thickness behind one of their step's planes (the
-        penalty yielded to a stronger pull, e.g. a tight armhole pulled into the armpit)
-        keep their planes; those behind the planes of the body faces nearest to x (their
-        step's planes were other faces') get these planes. Returns how many changed."""
-        m = self.model
-        count = 0
-        for i in range(m.particle_count):
-            if m.particle_inv_mass[i] > 0.0:
-                xi = self.x[i]
-                k = self.c_k[i]
-                if k > 0.0:
-                    depth = ti.max(self.c_o[i] - self.c_n[i].dot(xi),
-                                   self.c_o2[i] - self.c_n2[i].dot(xi))  # fmt: skip
-                    if self.c_k2[i] == 0.0:
-                        depth = self.c_o[i] - self.c_n[i].dot(xi)
-                    if depth > 2.0 * self.c_h[i]:
-                        self.c_k[i] = 10.0 * k
-                        self.c_k2[i] *= 10.0
-                        count += 1
-                        continue
-                xs = ti.cast(xi, float)
-                for c in ti.static(m.colliders):
-                    found, n, o, n2, o2 = c.contact_planes(xs, ti.cast(CONTACT_REACH_M, float))
-                    h = c.thickness[None]
-                    inside = found > 0 and n.dot(xs) < o - h
-                    if found == 2 and n2.dot(xs) < o2 - h:
-                        inside = True
-                    if inside:
-                        k_new = CONTACT_STIFFNESS * m.particle_mass[i] / (self.h[None] ** 2)
-                        k_new = 10.0 * ti.max(self.c_k[i], k_new)
-                        self.c_n[i] = ti.cast(n, REAL)
-                        self.c_o[i] = ti.cast(o, REAL)
-                        self.c_n2[i] = ti.cast(n2, REAL)
-                        self.c_o2[i] = ti.cast(o2, REAL)
-                        self.c_h[i] = ti.cast(h, REAL)
-                        self.c_mu[i] = ti.cast(c.mu_s[None], REAL)
-                        self.c_k[i] = k_new
-                        self.c_k2[i] = k_new if found == 2 else 0.0
-                        count += 1
-        return count
-
     @ti.func
     def _update_contact_force(self, i, xi, g):
         """λ_i := the normal force [N] with which vertex i at xi presses on its planes, for
@@ -622,7 +571,6 @@ class ImplicitEulerSolver:
                         self.c_n2[i] = ti.cast(n2, REAL)
                         self.c_o2[i] = ti.cast(o2, REAL)
                         self.c_mu[i] = ti.cast(c.mu_s[None], REAL)
-                        self.c_h[i] = ti.cast(c.thickness[None], REAL)
                         self.c_k[i] = k
                         self.c_k2[i] = k if count == 2 else 0.0
             if self.c_k[i] == 0.0:
