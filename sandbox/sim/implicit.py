@@ -77,8 +77,6 @@ steps 20-150 times a step and the sewing of the A-line skirt diverge (ad-hoc run
 CONTACT_REACH_M = 2e-2
 """A vertex gets a contact plane for the step when a body face is within this distance [m]
 plus twice its predicted motion (|x̂ − x_n|) of its start."""
-CONTACT_STOP_AT_PLANES = True
-"""Cut a Newton step that would take a vertex across its contact plane (see _post_solve)."""
 FRICTION_SLIP_M_S = 1e-3
 """Friction's smoothing speed ε_v [m/s]: below it the friction force grows linearly with
 the tangential speed (sticking creeps at most this fast), above it it is μ λ (Coulomb)."""
@@ -209,15 +207,11 @@ class ImplicitEulerSolver:
         line_search_cuts = 0
         previous = math.inf
         for _ in range(self.max_newton):
-            e0 = float(self._grad_hess(1)[0])  # friction's normal force from this iterate
+            e0 = float(self._grad_hess()[0])
             newton += 1
             cg_total += self._solve()
             direct = self.pattern is not None  # then Δx comes from dx_np
-            # the CG path's Δx has no copy to go back to
-            stop = int(self.has_contact and direct and CONTACT_STOP_AT_PLANES)
-            step_norm, max_move, slope = self._post_solve(self._dx_source(), direct, stop)
-            if stop and slope >= 0.0:  # the cut step does not descend: take Newton's own
-                step_norm, max_move, slope = self._post_solve(self._dx_source(), direct, 0)
+            step_norm, max_move, slope = self._post_solve(self._dx_source(), direct)
             tol = self.tol_m_s * dt + self.rel_tol * max_move
             error = newton_error_estimate(step_norm, previous, tol)
             previous = step_norm
@@ -227,7 +221,7 @@ class ImplicitEulerSolver:
                 converged = True
                 break
             line_search_cuts += self._line_search(e0, slope)
-        res = float(self._grad_hess(0)[1])  # residual at the accepted point, for the stats
+        res = float(self._grad_hess()[1])  # residual at the accepted point, for the stats
         self._finish(state_out.x, state_out.v, index)
         self.last = {
             "newton_iterations": newton,
@@ -409,11 +403,11 @@ class ImplicitEulerSolver:
         if self.has_contact:
             self._contact_planes(self.x0)
         self._trial_gravity(0.0)
-        self._grad_hess(0)
+        self._grad_hess()
         self._cg_init()
         self._cg_iter()
         self._cg_loop(1, 0.0)
-        self._post_solve(self._dx_source(), self.pattern is not None, 0)
+        self._post_solve(self._dx_source(), self.pattern is not None)
         self._trial(0.0)
         self._internal_energy_kernel(state.x)
         if self.pattern is not None:
@@ -492,14 +486,14 @@ class ImplicitEulerSolver:
             k2 = self.c_k2[i]  # the second plane of a crease (0: none)
             n2 = self.c_n2[i]
             phi2 = n2.dot(xi) - self.c_o2[i]
-            if phi2 <= 0.0:  # at 0 the Hessian of the side the solve moves to
+            if phi2 < 0.0:
                 e += 0.5 * k2 * phi2 * phi2
                 g += k2 * phi2 * n2
                 hess += k2 * n2.outer_product(n2)
             n = self.c_n[i]
             nn = n.outer_product(n)
             phi = n.dot(xi) - self.c_o[i]
-            if phi <= 0.0:
+            if phi < 0.0:
                 e += 0.5 * k * phi * phi
                 g += k * phi * n
                 hess += k * nn
@@ -521,30 +515,11 @@ class ImplicitEulerSolver:
         return e, g, hess
 
     @ti.func
-    def _stop_at_plane(self, xi, d, n, o):
-        """The step d of a vertex at xi, cut so that it does not cross the plane n·y = o
-        from the front (unchanged if it starts on or behind the plane, or stays in front)."""
-        phi0 = n.dot(xi) - o
-        phi1 = phi0 + n.dot(d)
-        out = d
-        if phi0 > 0.0 and phi1 < 0.0:
-            out = d - phi1 * n
-        return out
-
-    @ti.func
-    def _update_contact_force(self, i, xi, g):
-        """λ_i := the normal force [N] with which vertex i at xi presses on its planes, for
-        the friction: the part of −g (g the gradient of E without contact, so −g is the
-        force of inertia, cloth, seams and gravity) into each plane it touches (φ ≤ 0).
-        At the solution it is the penalty's force; unlike that, it is right at once for a
-        vertex that the solve has put exactly on its plane (φ = 0, no penalty yet)."""
-        lam = ti.cast(0.0, REAL)
-        if self.c_k[i] > 0.0:
-            if self.c_n[i].dot(xi) - self.c_o[i] <= 0.0:
-                lam += ti.max(self.c_n[i].dot(g), 0.0)
-            if self.c_k2[i] > 0.0 and self.c_n2[i].dot(xi) - self.c_o2[i] <= 0.0:
-                lam += ti.max(self.c_n2[i].dot(g), 0.0)
-        self.c_lam[i] = lam
+    def _update_contact_force(self, i, xi):
+        """λ_i := the penalty's normal force at xi [N] (both planes), for the friction."""
+        phi = self.c_n[i].dot(xi) - self.c_o[i]
+        phi2 = self.c_n2[i].dot(xi) - self.c_o2[i]
+        self.c_lam[i] = self.c_k[i] * ti.max(-phi, 0.0) + self.c_k2[i] * ti.max(-phi2, 0.0)
 
     @ti.kernel
     def _contact_planes(self, x: ti.template()):
@@ -566,10 +541,13 @@ class ImplicitEulerSolver:
                     if count > 0 and n.dot(xs) - o < best:
                         best = n.dot(xs) - o
                         k = CONTACT_STIFFNESS * m.particle_mass[i] / (h * h)
+                        # a vertex that starts inside the thickness may not go deeper this
+                        # step, but is not pushed out by the penalty either (no shock from
+                        # a stiff penalty): the contact response after the solve does that
                         self.c_n[i] = ti.cast(n, REAL)
-                        self.c_o[i] = ti.cast(o, REAL)
+                        self.c_o[i] = ti.min(ti.cast(o, REAL), self.c_n[i].dot(x[i]))
                         self.c_n2[i] = ti.cast(n2, REAL)
-                        self.c_o2[i] = ti.cast(o2, REAL)
+                        self.c_o2[i] = ti.min(ti.cast(o2, REAL), self.c_n2[i].dot(x[i]))
                         self.c_mu[i] = ti.cast(c.mu_s[None], REAL)
                         self.c_k[i] = k
                         self.c_k2[i] = k if count == 2 else 0.0
@@ -606,7 +584,7 @@ class ImplicitEulerSolver:
         self._elastic_energy(x, self.energy_t)
 
     @ti.kernel
-    def _grad_hess(self, update_force: ti.i32) -> ti.types.vector(2, ti.f64):
+    def _grad_hess(self) -> ti.types.vector(2, ti.f64):
         """∇E, per-element Hessians, block-Jacobi preconditioner and E at self.x.
 
         Returns (E [J], the largest force residual over the vertex weight)."""
@@ -690,8 +668,7 @@ class ImplicitEulerSolver:
                 g += mi * ((xi - self.xh[i]) / (h * h) + self.gamma[None] * (xi - self.x0[i]) / h)
                 d += mi * c_mass * ti.Matrix.identity(REAL, 3)
                 if ti.static(self.has_contact):
-                    if update_force:
-                        self._update_contact_force(i, xi, g)
+                    self._update_contact_force(i, xi)
                     _, gc, hc = self._contact_terms(i, xi)
                     g += gc
                     d += hc
@@ -895,16 +872,11 @@ class ImplicitEulerSolver:
                 self.p[i] = self.z[i] + self.beta[None] * self.p[i]
 
     @ti.kernel
-    def _post_solve(self, dx_in: ti.types.ndarray(), load: ti.template(),
-                    stop_at_planes: ti.i32) -> ti.types.vector(3, ti.f64):  # fmt: skip
+    def _post_solve(self, dx_in: ti.types.ndarray(), load: ti.template()) -> ti.types.vector(
+        3, ti.f64
+    ):
         """(max|Δx| [m], max|x − x_n| [m], ∇E·Δx [J]) after a solve; with ``load``, Δx is
-        first read from ``dx_in`` (n, 3) (the direct solver's numpy result).
-
-        ``stop_at_planes``: a vertex in front of a contact plane whose Δx would cross it
-        stops on it instead (the normal part of its step is cut; it slides on). Newton's
-        model has no contact stiffness in front of a plane, so the full step would go deep
-        behind it, the energy would rise steeply and the line search would halve the whole
-        cloth's step many times (60 halvings a step on the sleeveless blouse at 3 cm)."""
+        first read from ``dx_in`` (n, 3) (the direct solver's numpy result)."""
         self.max_dx[None] = 0.0
         self.max_move[None] = 0.0
         self.slope[None] = 0.0
@@ -912,13 +884,6 @@ class ImplicitEulerSolver:
         for i in range(self.model.particle_count):
             if ti.static(load):
                 self.dx[i] = ti.Vector([dx_in[i, 0], dx_in[i, 1], dx_in[i, 2]], REAL)
-            if ti.static(self.has_contact):
-                if stop_at_planes and self.c_k[i] > 0.0:
-                    self.dx[i] = self._stop_at_plane(self.x[i], self.dx[i], self.c_n[i],
-                                                     self.c_o[i])  # fmt: skip
-                    if self.c_k2[i] > 0.0:
-                        self.dx[i] = self._stop_at_plane(self.x[i], self.dx[i], self.c_n2[i],
-                                                         self.c_o2[i])  # fmt: skip
             ti.atomic_max(self.max_dx[None], self.dx[i].norm())
             ti.atomic_max(self.max_move[None], (self.x[i] - self.x0[i]).norm())
             self.slope[None] += ti.cast(self.grad[i].dot(self.dx[i]), ti.f64)
@@ -994,6 +959,8 @@ class ImplicitEulerSolver:
             v = ti.Vector.zero(REAL, 3)
             if m.particle_inv_mass[i] > 0.0:
                 v = (self.x[i] - self.x0[i]) / h
+                if ti.static(self.has_contact):  # the contact force, for next step's start
+                    self._update_contact_force(i, self.x[i])
                 if ti.static(len(m.colliders) > 0):
                     # the colliders work in the state's precision (as in the explicit solver)
                     xs = ti.cast(self.x0[i], float)
