@@ -321,13 +321,33 @@ class BodyCollider:
         penalty in its step energy (:mod:`sandbox.sim.implicit`), so contact acts inside the
         Newton solve, where cloth can slide along the body instead of being stopped after.
         """
-        lo = self._cell_of(x - reach)
-        hi = self._cell_of(x + reach)
-        best = reach
         count = 0
         n1 = ti.Vector([0.0, 0.0, 1.0])
         o1 = 0.0
-        q1 = x
+        n2 = n1
+        o2 = o1
+        found, t1 = self._nearest_face(x, reach, n1, x, False)
+        if found:
+            count = 1
+            n1, o1 = self._face_plane(t1, x)
+            n2, o2 = n1, o1
+            found2, t2 = self._nearest_face(x, reach, n1, self._closest_on(t1, x), True)
+            if found2:
+                count = 2
+                n2, o2 = self._face_plane(t2, x)
+        h = self.thickness[None]
+        return count, n1, o1 + h, n2, o2 + h
+
+    @ti.func
+    def _nearest_face(self, x, reach, n1, q1, crease: ti.template()):
+        """``(found, t)``: the body face nearest to x within ``reach`` [m]; with ``crease``,
+        only faces that meet face 1 (normal n1, point q1 nearest to x) in a concave crease:
+        their normal differs by more than CREASE_COS and q1 is in front of their plane."""
+        lo = self._cell_of(x - reach)
+        hi = self._cell_of(x + reach)
+        best = reach
+        found = 0
+        t_best = 0
         cell = lo
         for _ in range(self._cells_to_visit(lo, hi)):
             cid = self._cell_index(cell)
@@ -335,36 +355,19 @@ class BodyCollider:
                 t = self.cell_entries[e]
                 r = self.tri_radius[t] + best
                 if (x - self.tri_centre[t]).norm_sqr() <= r * r:
-                    q = self._closest_on(t, x)
-                    d = (x - q).norm()
-                    if d < best:
-                        best = d
-                        count = 1
-                        q1 = q
-                        n1, o1 = self._face_plane(t, x)
-            cell = self._next_cell(cell, lo, hi)
-        n2 = n1
-        o2 = o1
-        if count == 1:
-            best = reach
-            cell = lo
-            for _ in range(self._cells_to_visit(lo, hi)):
-                cid = self._cell_index(cell)
-                for e in range(self.cell_start[cid], self.cell_start[cid + 1]):
-                    t = self.cell_entries[e]
-                    r = self.tri_radius[t] + best
-                    if (x - self.tri_centre[t]).norm_sqr() <= r * r:
+                    ok = 1
+                    if ti.static(crease):
                         n, o = self._face_plane(t, x)
-                        if n.dot(n1) < CREASE_COS and n.dot(q1) - o >= 0.0:
-                            d = (x - self._closest_on(t, x)).norm()
-                            if d < best:
-                                best = d
-                                count = 2
-                                n2 = n
-                                o2 = o
-                cell = self._next_cell(cell, lo, hi)
-        h = self.thickness[None]
-        return count, n1, o1 + h, n2, o2 + h
+                        if n.dot(n1) >= CREASE_COS or n.dot(q1) - o < 0.0:
+                            ok = 0
+                    if ok:
+                        d = (x - self._closest_on(t, x)).norm()
+                        if d < best:
+                            best = d
+                            found = 1
+                            t_best = t
+            cell = self._next_cell(cell, lo, hi)
+        return found, t_best
 
     @ti.func
     def _closest_on(self, t, x):
