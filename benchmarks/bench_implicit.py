@@ -307,8 +307,8 @@ def garment_fine(steps: int = 3):
 
 def drape_newton(name: str = "sleeveless-blouse", contact_in_energy: bool = True):
     """Newton's convergence over a whole implicit drape at 3 cm (size 12, the garment's
-    fabric): steps, unconverged steps, mean Newton iterations, line-search halvings, replans,
-    and the drape's acceptance figures. ``contact_in_energy=False`` runs the solver as before
+    fabric): steps, unconverged steps, mean Newton iterations, line-search halvings, and the
+    drape's acceptance figures. ``contact_in_energy=False`` runs the solver as before
     the nineteenth session (contact only after the solve)."""
     from sandbox.scene.drape import build_drape, make_mannequin, resolve_pattern, run_drape
 
@@ -323,8 +323,7 @@ def drape_newton(name: str = "sleeveless-blouse", contact_in_energy: bool = True
     def logged(*args, **kw):
         step(*args, **kw)
         last = s.last
-        rows.append((last["newton_iterations"], last["converged"], last["line_search_halvings"],
-                     last.get("contact_replans", 0)))  # fmt: skip
+        rows.append((last["newton_iterations"], last["converged"], last["line_search_halvings"]))
 
     s.step = logged
     s.advance = lambda st, c, dt, n, first=0: [logged(st, st, c, dt, first + k) for k in range(n)]
@@ -332,7 +331,7 @@ def drape_newton(name: str = "sleeveless-blouse", contact_in_energy: bool = True
     a = np.array(rows, float)
     print(f"drape_newton {name} 3 cm, contact in energy {contact_in_energy}: {len(a)} steps, "
           f"{int((a[:, 1] == 0).sum())} unconverged, Newton mean {a[:, 0].mean():.1f}, "
-          f"line-search halvings {int(a[:, 2].sum())}, replans {int(a[:, 3].sum())}; seam gap "
+          f"line-search halvings {int(a[:, 2].sum())}; seam gap "
           f"{m['seam_gap_max_m'] * 1e3:.2f} mm, inside {m['vertices_inside_body']}, pairs "
           f"{m['intersecting_triangle_pairs']}, wall {m['total_wall_time_s']:.0f} s",
           flush=True)  # fmt: skip
