@@ -30,12 +30,12 @@ A step that reaches ``max_newton``
 iterations first is counted as unconverged in :meth:`stats` (never silently).
 
 Contact with the body is part of E (:meth:`ImplicitEulerSolver._contact_terms`): at the
-start of a step each vertex near a body gets the plane of its nearest body face
-(``BodyCollider.contact_plane``), and E gains a penalty ½ k φ² where φ = n·x − offset < 0
-(inside the thickness) and a lagged, smoothed Coulomb friction μ λ f(|u|) on the step's
-tangential motion u (λ the vertex's contact force at the end of the last step; Li et al.
-2020, IPC's friction). The planes and λ stay fixed during the step, so E is one function
-and the Newton stop rule holds. In the solve, cloth slides along the body: a seam pulled
+start of a step each vertex near a body gets the plane of its nearest body face and, in a
+concave crease, a second one (``BodyCollider.contact_planes``), and E gains a penalty
+½ k φ² where φ = n·x − offset < 0 (inside the thickness) and a smoothed Coulomb friction
+μ λ f(|u|) on the step's tangential motion u (Li et al. 2020, IPC's friction potential;
+λ the penalty's force at the current Newton iterate, held during its line search). The
+planes stay fixed during the step. In the solve, cloth slides along the body: a seam pulled
 around the neck closes instead of stopping where its straight path enters the body. Then,
 as a safety net, v_n+1 = (x − x_n)/h is revised by each collider's ``respond`` and
 x_n+1 = x_n + h v_n+1, as the explicit solver does after its velocity update.
@@ -474,7 +474,8 @@ class ImplicitEulerSolver:
 
         With the step's plane (n, offset) and φ = n·x − offset (< 0: inside the thickness),
         the penalty ½ k φ² (k = CONTACT_STIFFNESS m/h²), and friction μ λ f(|u|) on the
-        tangential motion u = (I − n nᵀ)(x − x_n), with λ [N] the lagged contact force and
+        tangential motion u = (I − n nᵀ)(x − x_n), with λ [N] the penalty's force at the
+        iterate (:meth:`_update_contact_force`, held during a line search) and
         f(s) = s²/(2ε) below ε = FRICTION_SLIP_M_S·h, s − ε/2 above: a force μ λ u/ε while
         sticking, μ λ û (Coulomb) while sliding. Both terms are convex in x.
         """
