@@ -199,7 +199,7 @@ class ImplicitEulerSolver:
         t0 = time.perf_counter()
         self._begin(state_in.x, state_in.v, control.gravity, control.damping_per_s, dt)
         if self.has_contact:
-            self._contact_planes(self.x0)
+            self._contact_planes()
         self._initial_guess()
         newton = cg_total = 0
         converged = False
@@ -401,7 +401,7 @@ class ImplicitEulerSolver:
     def _warm_up(self, state: State, control: Control) -> None:
         self._begin(state.x, state.v, control.gravity, control.damping_per_s, 1.0)
         if self.has_contact:
-            self._contact_planes(self.x0)
+            self._contact_planes()
         self._trial_gravity(0.0)
         self._grad_hess()
         self._cg_init()
@@ -523,19 +523,18 @@ class ImplicitEulerSolver:
         self.c_lam[i] = self.c_k[i] * ti.max(-phi, 0.0) + self.c_k2[i] * ti.max(-phi2, 0.0)
 
     @ti.kernel
-    def _contact_planes(self, x: ti.template()):
-        """Each free vertex's contact planes at x (``BodyCollider.contact_planes``: the
-        nearest body face's and, in a crease, a second) within CONTACT_REACH_M + 2|x̂ − x_n|
-        + |x − x_n|, from the collider whose nearest face is closest; or none."""
+    def _contact_planes(self):
+        """Each free vertex's contact planes for the step (``BodyCollider.contact_planes``:
+        the nearest body face's and, in a crease, a second) within CONTACT_REACH_M +
+        2|x̂ − x_n| of x_n, from the collider whose nearest face is closest; or none."""
         m = self.model
         h = self.h[None]
         for i in range(m.particle_count):
             self.c_k[i] = 0.0
             self.c_k2[i] = 0.0
             if m.particle_inv_mass[i] > 0.0:
-                xs = ti.cast(x[i], float)
-                reach = ti.cast(CONTACT_REACH_M + 2.0 * (self.xh[i] - self.x0[i]).norm()
-                                + (x[i] - self.x0[i]).norm(), float)  # fmt: skip
+                xs = ti.cast(self.x0[i], float)
+                reach = ti.cast(CONTACT_REACH_M + 2.0 * (self.xh[i] - self.x0[i]).norm(), float)
                 best = ti.cast(1e30, float)
                 for c in ti.static(m.colliders):
                     count, n, o, n2, o2 = c.contact_planes(xs, reach)
@@ -546,9 +545,9 @@ class ImplicitEulerSolver:
                         # step, but is not pushed out by the penalty either (no shock from
                         # a stiff penalty): the contact response after the solve does that
                         self.c_n[i] = ti.cast(n, REAL)
-                        self.c_o[i] = ti.min(ti.cast(o, REAL), self.c_n[i].dot(x[i]))
+                        self.c_o[i] = ti.min(ti.cast(o, REAL), self.c_n[i].dot(self.x0[i]))
                         self.c_n2[i] = ti.cast(n2, REAL)
-                        self.c_o2[i] = ti.min(ti.cast(o2, REAL), self.c_n2[i].dot(x[i]))
+                        self.c_o2[i] = ti.min(ti.cast(o2, REAL), self.c_n2[i].dot(self.x0[i]))
                         self.c_mu[i] = ti.cast(c.mu_s[None], REAL)
                         self.c_k[i] = k
                         self.c_k2[i] = k if count == 2 else 0.0
