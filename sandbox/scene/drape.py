@@ -415,7 +415,9 @@ def build_drape(
     scene.mannequin = mannequin
     scene.placement_body = body
     scene.builder, scene.meshes, scene.piece_index, scene.placed = builder, meshes, index, placed
-    scene.seam_stiffness_N_m = seam_k
+    # seams sewn live (the app's clicks) keep the cloth's own stiffness: with the edge-scaled
+    # one the app's click-sewing test failed 1 run in 4 (3 Dec 2026, not yet understood)
+    scene.seam_stiffness_N_m = max(material.stretch_u_N_m, material.stretch_v_N_m)
     scene.edge_length_m = pattern.mesh_edge_m if edge_length_m is None else float(edge_length_m)
     scene.integrator_warning = implicit_mesh_warning(integrator, scene.edge_length_m)
     if scene.integrator_warning:
