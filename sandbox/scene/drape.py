@@ -102,10 +102,10 @@ into the body slide round to its partner, but at 3 cm the raglan top then ended 
 vertices inside the body and the long-sleeve shirt with 2 (1 m/s speed limit)."""
 SEW_FRICTION_IMPLICIT = 0.0
 """The same for ``implicit_euler``, whose friction acts inside the step's energy with the
-contact force of the step before: that force includes the seams' own pull into the body, so
-at the scene's friction (cotton on the body, 0.4) the halter top's neck seams stalled 13.5 mm
-open at 3 cm; frictionless they closed in 11 frames (ad-hoc trace, 3 Dec 2026). The drape
-after the sewing has the scene's friction."""
+penalty's contact force at each Newton iterate: that force includes the seams' own pull
+into the body, so at the scene's friction (cotton on the body, 0.4) the halter top's neck
+seams stalled 13.5 mm open at 3 cm; frictionless they closed in 11 frames (ad-hoc trace,
+3 Dec 2026). The drape after the sewing has the scene's friction."""
 SEW_STALL_FRAMES = 6
 SEW_STALL_SHRINK = 0.95
 """Sewing also ends when the largest seam gap has not shrunk below this fraction of what it
@@ -369,8 +369,8 @@ def build_drape(
             meta={"mesher": "panel_mesh"},
         )
     edge = pattern.mesh_edge_m if edge_length_m is None else float(edge_length_m)
-    seam_k = max(material.stretch_u_N_m, material.stretch_v_N_m) * max(
-        1.0, edge / SEAM_REFERENCE_EDGE_M)  # fmt: skip
+    k_cloth = max(material.stretch_u_N_m, material.stretch_v_N_m)
+    seam_k = k_cloth * max(1.0, edge / SEAM_REFERENCE_EDGE_M)
     names = list(meshes)
     if sew_pattern:
         for seam in pattern_seam_sides(pattern, meshes, index):
@@ -417,8 +417,8 @@ def build_drape(
     scene.builder, scene.meshes, scene.piece_index, scene.placed = builder, meshes, index, placed
     # seams sewn live (the app's clicks) keep the cloth's own stiffness: with the edge-scaled
     # one the app's click-sewing test failed 1 run in 4 (3 Dec 2026, not yet understood)
-    scene.seam_stiffness_N_m = max(material.stretch_u_N_m, material.stretch_v_N_m)
-    scene.edge_length_m = pattern.mesh_edge_m if edge_length_m is None else float(edge_length_m)
+    scene.seam_stiffness_N_m = k_cloth
+    scene.edge_length_m = edge
     scene.integrator_warning = implicit_mesh_warning(integrator, scene.edge_length_m)
     if scene.integrator_warning:
         log.warning("%s: %s", pattern.name, scene.integrator_warning)
