@@ -28,8 +28,8 @@ lint: setup
 	$(PYTHON) -m ruff format --check .
 
 test: lint
-	$(PYTHON) -m pytest -q tests/test_[a-l]*.py
-	$(PYTHON) -m pytest -q tests/test_[m-z]*.py
+	$(PYTHON) -m pytest -q --durations=10 tests/test_[a-l]*.py
+	$(PYTHON) -m pytest -q --durations=10 tests/test_[m-z]*.py
 
 validate: setup
 	$(PYTHON) -m sandbox validate cantilever
