@@ -557,11 +557,13 @@ class ImplicitEulerSolver:
                         # penalty), and never allowed deeper than it starts
                         recover = CONTACT_RECOVERY_M_S * h
                         self.c_n[i] = ti.cast(n, REAL)
-                        self.c_o[i] = ti.min(ti.cast(o, REAL),
-                                             self.c_n[i].dot(self.x0[i]) + recover)
+                        self.c_o[i] = ti.min(
+                            ti.cast(o, REAL), self.c_n[i].dot(self.x0[i]) + recover
+                        )
                         self.c_n2[i] = ti.cast(n2, REAL)
-                        self.c_o2[i] = ti.min(ti.cast(o2, REAL),
-                                              self.c_n2[i].dot(self.x0[i]) + recover)
+                        self.c_o2[i] = ti.min(
+                            ti.cast(o2, REAL), self.c_n2[i].dot(self.x0[i]) + recover
+                        )
                         self.c_t[i] = ti.cast(o, REAL)
                         self.c_t2[i] = ti.cast(o2, REAL)
                         # behind the face itself (o includes the thickness)
