@@ -228,6 +228,28 @@ def test_a_vertex_inside_the_thickness_is_moved_out_but_not_launched():
     assert np.allclose(sc.state.positions()[:, 1], 0.003, atol=1e-4)
 
 
+def test_implicit_lifts_a_sheet_that_starts_inside_the_body_without_launching_it():
+    """A vertex deeper than the thickness inside a body was left there by the implicit step
+    (the penalty's plane held it where it started, the response only acts within the
+    thickness): 126 vertices stayed inside a sphere resized x1.3 (docs/stability.md). Now
+    each vertex that starts a step inside is lifted in front of its plane after the solve,
+    and the lift is not kept as velocity. A sheet 1 cm inside a box (thickness 3 mm), no
+    gravity, steps of 1/60 s."""
+    sc = scene(
+        {"size_m": [0.2, 0.2], "origin_m": [-0.1, -0.01, 0.1], "rotation_deg": [-90, 0, 0]},
+        [{"name": "box", "shape": "box", "center_m": [0, -0.2, 0], "size_m": [1, 0.4, 1]}],
+        simulation={"integrator": "implicit_euler", "dt_s": 1 / 60,
+                    "gravity_m_s2": [0.0, 0.0, 0.0], "damping_per_s": 0.0},
+    )  # fmt: skip
+    assert np.allclose(sc.state.positions()[:, 1], -0.01)
+    sc.solver.advance(sc.state, sc.control, sc.dt_s, 1)
+    y = sc.state.positions()[:, 1]
+    assert np.allclose(y, 0.003, atol=1e-4)  # out to the thickness in one step
+    assert np.abs(sc.state.v.to_numpy()).max() < 1e-3  # and not launched (0.78 m/s if kept)
+    sc.solver.advance(sc.state, sc.control, sc.dt_s, 20)
+    assert np.allclose(sc.state.positions()[:, 1], 0.003, atol=1e-4)
+
+
 def test_the_body_grid_lists_each_cells_triangles_in_order():
     """The grid is filled in parallel (any order); a vertex equally close to two triangles
     takes the first one's normal, so each cell's list is sorted to make runs repeatable.

@@ -997,27 +997,28 @@ class ImplicitEulerSolver:
     @ti.func
     def _lift_out(self, i, xi):
         """xi moved in front of its contact planes if vertex i started the step inside the
-        body; ``c_push[i]`` := the outward velocity [m/s] that adds beyond the vertex's own.
+        body; ``c_push[i]`` := the outward velocity [m/s] that the way out added beyond the
+        vertex's own (its start velocity's), for a vertex that started deeper in the
+        thickness than the penalty's recovery (CONTACT_RECOVERY_M_S) lets it out at once.
 
         The penalty alone cannot hold a vertex that is already deep: at 3 cm the membrane
         pulling a vertex across the armpit is stiffer than m/h² x CONTACT_STIFFNESS, and two
         of the sleeveless blouse's vertices stayed 12.7 mm inside with the penalty's
         recovery alone (3 Dec 2026). Only vertices that start inside the body are lifted,
-        so a vertex sliding off the edge of its face's plane is not. The push moves the
+        so a vertex sliding off the edge of its face's plane is not. The way out moves the
         vertex but is not kept as velocity (``_drift``): no launch, as in the explicit
         solver's ``respond_split``.
         """
         push = ti.Vector.zero(REAL, 3)
         if self.c_in[i]:
-            x_lift = self._front_of_planes(i, xi)
-            d = x_lift - xi
-            if d.norm() > 0.0:
-                h = self.h[None]
-                cn = d.normalized()
-                out = ((x_lift - self.x0[i]).dot(cn) - ti.max((xi - self.x0[i]).dot(cn), 0.0)) / h
-                if out > 0.0:
-                    push = out * cn
-            xi = x_lift
+            xi = self._front_of_planes(i, xi)
+        if self.c_k[i] > 0.0 and self.c_o[i] < self.c_t[i]:
+            h = self.h[None]
+            n = self.c_n[i]
+            own = ti.max((self.xh[i] - self.x0[i]).dot(n) / h, 0.0)
+            out = (xi - self.x0[i]).dot(n) / h - own
+            if out > 0.0:
+                push = out * n
         self.c_push[i] = push
         return xi
 
