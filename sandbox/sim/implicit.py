@@ -83,6 +83,14 @@ body) is moved out: its plane is put at most this times h in front of it. Before
 at the vertex's start), a vertex pushed inside by the self-collision pass could only go
 deeper: each step's plane started where the last step's pull had left it, and the sleeveless
 blouse's armhole vertices sank 2.9 -> 13.6 mm into the body over 45 steps (3 Dec 2026)."""
+LIFT_MAX_M = 0.03
+"""The longest lift [m] out of the body after a solve (``_front_of_planes``); a longer one
+means planes that do not bound the body near the vertex, and it is not made."""
+LIFT_MIN_SIN2 = 0.25
+"""A crease's two planes are both used for a lift only when sin² of the angle between their
+normals exceeds this (30° to 150°): the line where nearly parallel or opposite planes meet
+is far away. The first version (1e-9) stretched the vest and the T-shirt's triangles to
+3.2 times their length in the gallery (3 Dec 2026)."""
 FRICTION_SLIP_M_S = 1e-3
 """Friction's smoothing speed ε_v [m/s]: below it the friction force grows linearly with
 the tangential speed (sticking creeps at most this fast), above it it is μ λ (Coulomb)."""
@@ -1044,12 +1052,13 @@ class ImplicitEulerSolver:
             else:  # both active: y = x + a n1 + b n2 on both planes
                 c = n1.dot(n2)
                 det = 1.0 - c * c
-                if det > 1e-9:
+                y = y1
+                if det > LIFT_MIN_SIN2:
                     a = (-p1 + c * p2) / det
                     b = (-p2 + c * p1) / det
                     y = x + a * n1 + b * n2
-                else:  # (anti)parallel planes: the first one's
-                    y = y1
+            if (y - x).norm() > LIFT_MAX_M:  # a plane far off (a thin part's other side)
+                y = x
         return y
 
     @ti.kernel
