@@ -77,12 +77,6 @@ steps 20-150 times a step and the sewing of the A-line skirt diverge (ad-hoc run
 CONTACT_REACH_M = 2e-2
 """A vertex gets a contact plane for the step when a body face is within this distance [m]
 plus twice its predicted motion (|x̂ − x_n|) of its start."""
-CONTACT_RECOVERY_M_S = 0.1
-"""How fast [m/s] a vertex that starts a step inside the thickness (or deeper inside the
-body) is moved out: its plane is put at most this times h in front of it. Before (the plane
-at the vertex's start), a vertex pushed inside by the self-collision pass could only go
-deeper: each step's plane started where the last step's pull had left it, and the sleeveless
-blouse's armhole vertices sank 2.9 -> 13.6 mm into the body over 45 steps (3 Dec 2026)."""
 LIFT_MAX_M = 0.03
 """The longest lift [m] out of the body after a solve (``_front_of_planes``); a longer one
 means planes that do not bound the body near the vertex, and it is not made."""
@@ -560,18 +554,14 @@ class ImplicitEulerSolver:
                     if count > 0 and n.dot(xs) - o < best:
                         best = n.dot(xs) - o
                         k = CONTACT_STIFFNESS * m.particle_mass[i] / (h * h)
-                        # a vertex that starts inside the thickness is asked out by at
-                        # most CONTACT_RECOVERY_M_S·h this step (no shock from a stiff
-                        # penalty), and never allowed deeper than it starts
-                        recover = CONTACT_RECOVERY_M_S * h
+                        # a vertex that starts inside the thickness may not go deeper this
+                        # step, but is not pushed out by the penalty either (no shock from
+                        # a stiff penalty): the contact response after the solve does that,
+                        # and _lift_out for a vertex that starts inside the body
                         self.c_n[i] = ti.cast(n, REAL)
-                        self.c_o[i] = ti.min(
-                            ti.cast(o, REAL), self.c_n[i].dot(self.x0[i]) + recover
-                        )
+                        self.c_o[i] = ti.min(ti.cast(o, REAL), self.c_n[i].dot(self.x0[i]))
                         self.c_n2[i] = ti.cast(n2, REAL)
-                        self.c_o2[i] = ti.min(
-                            ti.cast(o2, REAL), self.c_n2[i].dot(self.x0[i]) + recover
-                        )
+                        self.c_o2[i] = ti.min(ti.cast(o2, REAL), self.c_n2[i].dot(self.x0[i]))
                         self.c_t[i] = ti.cast(o, REAL)
                         self.c_t2[i] = ti.cast(o2, REAL)
                         # behind the face itself (o includes the thickness)
@@ -1006,13 +996,15 @@ class ImplicitEulerSolver:
     def _lift_out(self, i, xi):
         """xi moved in front of its contact planes if vertex i started the step inside the
         body; ``c_push[i]`` := the outward velocity [m/s] that the way out added beyond the
-        vertex's own (its start velocity's), for a vertex that started deeper in the
-        thickness than the penalty's recovery (CONTACT_RECOVERY_M_S) lets it out at once.
+        vertex's own (its start velocity's).
 
-        The penalty alone cannot hold a vertex that is already deep: at 3 cm the membrane
-        pulling a vertex across the armpit is stiffer than m/h² x CONTACT_STIFFNESS, and two
-        of the sleeveless blouse's vertices stayed 12.7 mm inside with the penalty's
-        recovery alone (3 Dec 2026). Only vertices that start inside the body are lifted,
+        The penalty's plane holds such a vertex where it starts, and the response after the
+        solve only acts within the thickness: a vertex that the self-collision pass pushed
+        2.9 mm into the sleeveless blouse's armpit sank to 13.6 mm (each step's plane began
+        where the membrane's pull had left it). Nor can the penalty pull it out: at 3 cm the
+        membrane pulling a vertex across the armpit is stiffer than m/h² x
+        CONTACT_STIFFNESS; with planes that asked such vertices out at 0.1 m/s two of them
+        stayed 12.7 mm inside (3 Dec 2026). Only vertices that start inside the body are lifted,
         so a vertex sliding off the edge of its face's plane is not. The way out moves the
         vertex but is not kept as velocity (``_drift``): no launch, as in the explicit
         solver's ``respond_split``.
@@ -1020,7 +1012,6 @@ class ImplicitEulerSolver:
         push = ti.Vector.zero(REAL, 3)
         if self.c_in[i]:
             xi = self._front_of_planes(i, xi)
-        if self.c_k[i] > 0.0 and self.c_o[i] < self.c_t[i]:
             h = self.h[None]
             n = self.c_n[i]
             own = ti.max((self.xh[i] - self.x0[i]).dot(n) / h, 0.0)
