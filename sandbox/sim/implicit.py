@@ -182,7 +182,7 @@ class ImplicitEulerSolver:
             self.c_n, self.c_n2, self.c_hess = vec(n), vec(n), mat(n)
             self.c_o, self.c_o2, self.c_k, self.c_k2, self.c_mu, self.c_lam = (
                 ti.field(REAL, shape=n) for _ in range(6))  # fmt: skip
-            # the planes' own offsets (without the recovery limit), whether the vertex
+            # the planes' own offsets (without the start clamp), whether the vertex
             # started the step inside the body, and the push that lifted it out [m/s]
             self.c_t, self.c_t2 = ti.field(REAL, shape=n), ti.field(REAL, shape=n)
             self.c_in = ti.field(ti.i32, shape=n)
@@ -1023,8 +1023,10 @@ class ImplicitEulerSolver:
 
     @ti.func
     def _front_of_planes(self, i, x):
-        """The point nearest to x in front of vertex i's contact planes (n·y >= offset for
-        both): x itself, its projection on one plane, or on the line where both meet."""
+        """A point in front of vertex i's contact planes (n·y >= offset for both), near x:
+        x itself, else its projection on plane 1, else on plane 2, else the point of the
+        line where both meet that is nearest to x (both only at LIFT_MIN_SIN2, and no
+        move longer than LIFT_MAX_M)."""
         n1, t1 = self.c_n[i], self.c_t[i]
         n2, t2 = self.c_n2[i], self.c_t2[i]
         two = self.c_k2[i] > 0.0
