@@ -85,6 +85,10 @@ LIFT_MIN_SIN2 = 0.25
 normals exceeds this (30° to 150°): the line where nearly parallel or opposite planes meet
 is far away. The first version (1e-9) stretched the vest and the T-shirt's triangles to
 3.2 times their length in the gallery (3 Dec 2026)."""
+PLANE_BAND_M = 1e-9
+"""A vertex within this distance [m] of a contact plane, or behind it, has the plane's
+penalty in its Newton matrix; one farther in front does not, and a Newton step that would
+carry it through the plane stops it on the plane (``_stop_at_planes``)."""
 FRICTION_SLIP_M_S = 1e-3
 """Friction's smoothing speed ε_v [m/s]: below it the friction force grows linearly with
 the tangential speed (sticking creeps at most this fast), above it it is μ λ (Coulomb)."""
@@ -166,6 +170,7 @@ class ImplicitEulerSolver:
         self.pap = ti.field(ti.f64, shape=())
         self.rr = ti.field(ti.f64, shape=())
         self.slope = ti.field(ti.f64, shape=())
+        self.slope_t = ti.field(ti.f64, shape=())  # ∇E·(xt − x) of the last trial [J]
         self.alpha = ti.field(REAL, shape=())
         self.beta = ti.field(REAL, shape=())
         self.max_dx = ti.field(REAL, shape=())
@@ -187,6 +192,9 @@ class ImplicitEulerSolver:
             self.c_t, self.c_t2 = ti.field(REAL, shape=n), ti.field(REAL, shape=n)
             self.c_in = ti.field(ti.i32, shape=n)
             self.c_push = vec(n)
+            # 1: the contact had no normal force at the start of the step, so its friction
+            # takes λ at each Newton iterate; 0: λ of the step before, held (one energy)
+            self.c_new = ti.field(ti.i32, shape=n)
         self.self_collider = model.self_collider  # None switches the passes off (sewing)
         self.sc_x = self.sc_v = None  # state-precision copies for a self-collision pass
         self.pattern = self.factor = self.dx_np = None
@@ -220,11 +228,11 @@ class ImplicitEulerSolver:
         line_search_cuts = 0
         previous = math.inf
         for _ in range(self.max_newton):
-            e0 = float(self._grad_hess()[0])
+            e0 = float(self._grad_hess(1)[0])
             newton += 1
             cg_total += self._solve()
             direct = self.pattern is not None  # then Δx comes from dx_np
-            step_norm, max_move, slope = self._post_solve(self._dx_source(), direct)
+            step_norm, max_move, _slope = self._post_solve(self._dx_source(), direct)
             tol = self.tol_m_s * dt + self.rel_tol * max_move
             error = newton_error_estimate(step_norm, previous, tol)
             previous = step_norm
@@ -233,8 +241,8 @@ class ImplicitEulerSolver:
                 self._accept()
                 converged = True
                 break
-            line_search_cuts += self._line_search(e0, slope)
-        res = float(self._grad_hess()[1])  # residual at the accepted point, for the stats
+            line_search_cuts += self._line_search(e0)
+        res = float(self._grad_hess(0)[1])  # residual at the accepted point, for the stats
         self._finish(state_out.x, state_out.v, index)
         self.last = {
             "newton_iterations": newton,
@@ -386,14 +394,15 @@ class ImplicitEulerSolver:
         self.dx_np[:n] = self.pattern.unpermute(dx)  # _post_solve loads it into self.dx
         return iterations
 
-    def _line_search(self, e0: float, slope: float) -> int:
-        """Backtracking on E along Δx from E = ``e0`` with slope ∇E·Δx (Armijo); returns
-        the number of halvings."""
+    def _line_search(self, e0: float) -> int:
+        """Backtracking on E along Δx from E = ``e0`` (Armijo, on the slope of the step
+        actually taken: a vertex stopped at a contact plane moves less); returns the number
+        of halvings."""
         alpha, cuts = 1.0, 0
         eps = 1e-12 * abs(e0)  # round-off allowance (E, x and the gradient are float64)
         while True:
-            e = self._trial(alpha)
-            if e <= e0 + ARMIJO * alpha * slope + eps or cuts >= 30:
+            e, moved_slope = self._trial(alpha)
+            if e <= e0 + ARMIJO * moved_slope + eps or cuts >= 30:
                 break
             alpha *= 0.5
             cuts += 1
@@ -416,7 +425,7 @@ class ImplicitEulerSolver:
         if self.has_contact:
             self._contact_planes()
         self._trial_gravity(0.0)
-        self._grad_hess()
+        self._grad_hess(1)
         self._cg_init()
         self._cg_iter()
         self._cg_loop(1, 0.0)
@@ -488,7 +497,9 @@ class ImplicitEulerSolver:
         With the step's plane (n, offset) and φ = n·x − offset (< 0: inside the thickness),
         the penalty ½ k φ² (k = CONTACT_STIFFNESS m/h²), and friction μ λ f(|u|) on the
         tangential motion u = (I − n nᵀ)(x − x_n), with λ [N] the penalty's force at the
-        iterate (:meth:`_update_contact_force`, held during a line search) and
+        end of the step before, held for the whole step (so that Newton minimises one
+        energy), or, for a contact that had none then (``c_new``), at each Newton iterate
+        (:meth:`_update_contact_force`, held during a line search); and
         f(s) = s²/(2ε) below ε = FRICTION_SLIP_M_S·h, s − ε/2 above: a force μ λ u/ε while
         sticking, μ λ û (Coulomb) while sliding. Both terms are convex in x.
         """
@@ -503,6 +514,7 @@ class ImplicitEulerSolver:
             if phi2 < 0.0:
                 e += 0.5 * k2 * phi2 * phi2
                 g += k2 * phi2 * n2
+            if phi2 < PLANE_BAND_M:  # on the plane too (a vertex stopped there)
                 hess += k2 * n2.outer_product(n2)
             n = self.c_n[i]
             nn = n.outer_product(n)
@@ -510,6 +522,7 @@ class ImplicitEulerSolver:
             if phi < 0.0:
                 e += 0.5 * k * phi * phi
                 g += k * phi * n
+            if phi < PLANE_BAND_M:
                 hess += k * nn
             f = self.c_mu[i] * self.c_lam[i]
             if f > 0.0:
@@ -572,6 +585,7 @@ class ImplicitEulerSolver:
             if self.c_k[i] == 0.0:
                 self.c_lam[i] = 0.0
                 self.c_in[i] = 0
+            self.c_new[i] = 1 if self.c_lam[i] == 0.0 else 0
 
     @ti.func
     def _elastic_energy(self, x, acc):
@@ -603,8 +617,10 @@ class ImplicitEulerSolver:
         self._elastic_energy(x, self.energy_t)
 
     @ti.kernel
-    def _grad_hess(self) -> ti.types.vector(2, ti.f64):
-        """∇E, per-element Hessians, block-Jacobi preconditioner and E at self.x.
+    def _grad_hess(self, friction_force: ti.i32) -> ti.types.vector(2, ti.f64):
+        """∇E, per-element Hessians, block-Jacobi preconditioner and E at self.x; with
+        ``friction_force``, the normal force λ of a contact that had none at the start of
+        the step is first taken at self.x (:meth:`_update_contact_force`).
 
         Returns (E [J], the largest force residual over the vertex weight)."""
         m = self.model
@@ -687,7 +703,8 @@ class ImplicitEulerSolver:
                 g += mi * ((xi - self.xh[i]) / (h * h) + self.gamma[None] * (xi - self.x0[i]) / h)
                 d += mi * c_mass * ti.Matrix.identity(REAL, 3)
                 if ti.static(self.has_contact):
-                    self._update_contact_force(i, xi)
+                    if friction_force and self.c_new[i]:
+                        self._update_contact_force(i, xi)
                     _, gc, hc = self._contact_terms(i, xi)
                     g += gc
                     d += hc
@@ -911,17 +928,51 @@ class ImplicitEulerSolver:
         return ti.Vector([dx_max, move_max, self.slope[None]], ti.f64)
 
     @ti.kernel
-    def _trial(self, alpha: float) -> ti.f64:
-        """xt = x + α Δx; returns E(xt) [J]."""
+    def _trial(self, alpha: float) -> ti.types.vector(2, ti.f64):
+        """xt = x + α Δx, each vertex's step stopped where it would pass through a contact
+        plane it is in front of (:meth:`_stop_at_planes`); returns (E(xt) [J],
+        ∇E·(xt − x) [J])."""
+        self.slope_t[None] = 0.0
         ti.loop_config(serialize=self.serial)
         for i in range(self.model.particle_count):
-            self.xt[i] = self.x[i] + alpha * self.dx[i]
+            d = alpha * self.dx[i]
+            if ti.static(self.has_contact):
+                d = self._stop_at_planes(i, d)
+            self.xt[i] = self.x[i] + d
+            self.slope_t[None] += ti.cast(self.grad[i].dot(d), ti.f64)
         self.energy_t[None] = 0.0
         self._elastic_energy(self.xt, self.energy_t)
         ti.loop_config(serialize=self.serial)
         for i in range(self.model.particle_count):
             self.energy_t[None] += ti.cast(self._vertex_energy(i, self.xt[i]), ti.f64)
-        return self.energy_t[None]
+        return ti.Vector([self.energy_t[None], self.slope_t[None]], ti.f64)
+
+    @ti.func
+    def _stop_at_planes(self, i, d):
+        """Vertex i's step d [m], shortened so that it ends on a contact plane that it would
+        otherwise pass through from in front (farther than PLANE_BAND_M).
+
+        The penalty has no stiffness in front of its plane, so Newton's step does not see
+        it coming: without this, one vertex carried deep into the penalty made the line
+        search halve the step of the whole garment, 2-3 times per iteration while a garment
+        settles on the body. Stopped on the plane, the vertex has the penalty's stiffness
+        in the next iteration (PLANE_BAND_M) and finds its depth by Newton's method.
+        """
+        t = ti.cast(1.0, REAL)
+        if self.c_k[i] > 0.0:
+            xi = self.x[i]
+            n = self.c_n[i]
+            phi = n.dot(xi) - self.c_o[i]
+            phi_new = phi + n.dot(d)
+            if phi > PLANE_BAND_M and phi_new < 0.0:
+                t = phi / (phi - phi_new)
+            if self.c_k2[i] > 0.0:
+                n2 = self.c_n2[i]
+                phi2 = n2.dot(xi) - self.c_o2[i]
+                phi2_new = phi2 + n2.dot(d)
+                if phi2 > PLANE_BAND_M and phi2_new < 0.0:
+                    t = ti.min(t, phi2 / (phi2 - phi2_new))
+        return t * d
 
     @ti.kernel
     def _trial_gravity(self, w: float) -> ti.f64:
