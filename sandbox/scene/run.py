@@ -130,6 +130,16 @@ def run_scene(
         "dt_policy": "guard-adaptive" if guard.enabled else "fixed",
         **watch.metrics(),
     }
+    stats = getattr(scene.solver, "stats", None)
+    if stats is not None:  # implicit Euler: what its Newton solves cost (since the solver
+        # was made or its stats reset; a drape's include the sewing)
+        s = stats()
+        metrics["newton"] = {key: int(s[key]) for key in (
+            "steps", "newton_iterations", "unconverged_steps", "line_search_halvings",
+            "factorisations")}  # fmt: skip
+        metrics["newton"]["max_residual_force_over_weight"] = float(
+            s["max_residual_force_over_weight"]
+        )
     x_final = scene.state.positions()
     if model.seam_count:
         metrics["seam_count"] = model.seam_count

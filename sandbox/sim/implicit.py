@@ -261,6 +261,7 @@ class ImplicitEulerSolver:
         t["newton_iterations"] += newton
         t["cg_iterations"] += cg_total
         t["unconverged_steps"] += 0 if converged else 1
+        t["line_search_halvings"] += line_search_cuts
         t["max_newton_iterations"] = max(t["max_newton_iterations"], newton)
         t["max_final_step_m_s"] = max(t["max_final_step_m_s"], step_norm / dt)
         t["max_error_estimate_m_s"] = max(t["max_error_estimate_m_s"], error / dt)
@@ -287,6 +288,7 @@ class ImplicitEulerSolver:
             "newton_iterations": 0,
             "cg_iterations": 0,
             "unconverged_steps": 0,
+            "line_search_halvings": 0,
             "max_newton_iterations": 0,
             "max_final_step_m_s": 0.0,
             "max_error_estimate_m_s": 0.0,
@@ -949,30 +951,37 @@ class ImplicitEulerSolver:
 
     @ti.func
     def _stop_at_planes(self, i, d):
-        """Vertex i's step d [m], shortened so that it ends on a contact plane that it would
-        otherwise pass through from in front (farther than PLANE_BAND_M).
+        """Vertex i's step d [m], changed so that it ends on a contact plane that it would
+        otherwise pass through from in front (farther than PLANE_BAND_M): the part of the
+        step beyond the plane is taken off along the plane's normal, so the vertex keeps
+        its motion along the plane. Where that would put it behind a crease's other plane,
+        the step is shortened instead, to end on the first plane it meets.
 
         The penalty has no stiffness in front of its plane, so Newton's step does not see
         it coming: without this, one vertex carried deep into the penalty made the line
         search halve the step of the whole garment, 2-3 times per iteration while a garment
-        settles on the body. Stopped on the plane, the vertex has the penalty's stiffness
-        in the next iteration (PLANE_BAND_M) and finds its depth by Newton's method.
+        settles on the body. On the plane, the vertex has the penalty's stiffness in the
+        next iteration (PLANE_BAND_M) and finds its depth by Newton's method.
         """
-        t = ti.cast(1.0, REAL)
+        out = d
         if self.c_k[i] > 0.0:
             xi = self.x[i]
             n = self.c_n[i]
             phi = n.dot(xi) - self.c_o[i]
-            phi_new = phi + n.dot(d)
-            if phi > PLANE_BAND_M and phi_new < 0.0:
-                t = phi / (phi - phi_new)
+            t = ti.cast(1.0, REAL)  # the shortened step, for a crease
+            if phi > PLANE_BAND_M and phi + n.dot(d) < 0.0:
+                out -= (phi + n.dot(d)) * n
+                t = phi / (-n.dot(d))
             if self.c_k2[i] > 0.0:
                 n2 = self.c_n2[i]
                 phi2 = n2.dot(xi) - self.c_o2[i]
-                phi2_new = phi2 + n2.dot(d)
-                if phi2 > PLANE_BAND_M and phi2_new < 0.0:
-                    t = ti.min(t, phi2 / (phi2 - phi2_new))
-        return t * d
+                if phi2 > PLANE_BAND_M and phi2 + n2.dot(out) < 0.0:
+                    if phi2 + n2.dot(d) < 0.0:
+                        t = ti.min(t, phi2 / (-n2.dot(d)))
+                    out -= (phi2 + n2.dot(out)) * n2
+                    if phi > PLANE_BAND_M and phi + n.dot(out) < -PLANE_BAND_M:
+                        out = t * d  # back behind the first plane: stop at the first
+        return out
 
     @ti.kernel
     def _trial_gravity(self, w: float) -> ti.f64:
