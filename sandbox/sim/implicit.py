@@ -195,6 +195,9 @@ class ImplicitEulerSolver:
             # 1: the contact had no normal force at the start of the step, so its friction
             # takes λ at each Newton iterate; 0: λ of the step before, held (one energy)
             self.c_new = ti.field(ti.i32, shape=n)
+            # where the last step left each vertex: a state that does not continue it (a
+            # reset, a vertex moved by hand or by the untangling) gets no held λ
+            self.x_end = vec(n)
         self.self_collider = model.self_collider  # None switches the passes off (sewing)
         self.sc_x = self.sc_v = None  # state-precision copies for a self-collision pass
         self.pattern = self.factor = self.dx_np = None
@@ -587,6 +590,8 @@ class ImplicitEulerSolver:
             if self.c_k[i] == 0.0:
                 self.c_lam[i] = 0.0
                 self.c_in[i] = 0
+            if (self.x0[i] - self.x_end[i]).norm() > 0.0:  # not where the last step left it
+                self.c_lam[i] = 0.0
             self.c_new[i] = 1 if self.c_lam[i] == 0.0 else 0
 
     @ti.func
@@ -1128,6 +1133,8 @@ class ImplicitEulerSolver:
                 ti.atomic_min(self.bad_vertex[None], i)
             x_out[i] = ti.cast(x_new, float)
             v_out[i] = ti.cast(v, float)
+            if ti.static(self.has_contact):
+                self.x_end[i] = ti.cast(x_out[i], REAL)
 
 
 LINEAR_SOLVERS = ("auto", "direct", "cg")
