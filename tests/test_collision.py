@@ -272,6 +272,27 @@ def test_implicit_newton_settles_a_sheet_on_a_sphere_without_line_search_halving
     assert radius.min() > 0.2  # on the sphere, not in it
 
 
+def test_implicit_friction_holds_the_normal_force_only_for_a_state_it_continues():
+    """The friction's normal force λ is the one from the end of the step before, held for
+    the step. A state that does not continue the last step (a reset, vertices moved by
+    the untangling or by hand) must not inherit it: its contacts take λ at each iterate."""
+    sc = scene(
+        {"size_m": [0.2, 0.2], "origin_m": [-0.1, 0.004, 0.1], "rotation_deg": [-90, 0, 0]},
+        [{"name": "box", "shape": "box", "center_m": [0, -0.2, 0], "size_m": [1, 0.4, 1]}],
+        simulation={"integrator": "implicit_euler", "dt_s": 1 / 60},
+    )
+    solver = sc.solver
+    solver.advance(sc.state, sc.control, sc.dt_s, 10)  # resting on the box
+    solver.advance(sc.state, sc.control, sc.dt_s, 1, 10)
+    in_contact = solver.c_k.to_numpy() > 0.0
+    assert in_contact.all()
+    assert solver.c_new.to_numpy()[in_contact].max() == 0  # held: this state continues
+    x = sc.state.positions()
+    sc.state.set(x + [0.0, 1e-4, 0.0], sc.state.velocities())  # moved by hand
+    solver.advance(sc.state, sc.control, sc.dt_s, 1, 11)
+    assert solver.c_new.to_numpy()[in_contact].min() == 1  # not held
+
+
 def test_the_body_grid_lists_each_cells_triangles_in_order():
     """The grid is filled in parallel (any order); a vertex equally close to two triangles
     takes the first one's normal, so each cell's list is sorted to make runs repeatable.
