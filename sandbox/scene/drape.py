@@ -174,7 +174,7 @@ iterations per 1/60 s step, neither while sewing nor after an explicit sewing ph
 per step on the A-line skirt, docs/implicit.md), so a drape would take hours. A finer mesh
 gets :func:`implicit_mesh_warning` (logged and kept in metrics.json), not an error. At 3 cm
 12 of the 14 garments meet the acceptance with it (docs/implicit.md, "The gallery with
-vertices lifted out of the body"; docs/gallery-implicit)."""
+Newton steps stopped at the contact planes"; docs/gallery-implicit)."""
 DRAPE_MIN_TIME_S = 0.5
 DRAPE_TIME_LIMIT_S = 8.0
 DRAPE_WALL_LIMIT_S = 1800.0
