@@ -266,7 +266,7 @@ def garment():
                   f"wall {last['wall_s']:.2f} s", flush=True)  # fmt: skip
         s._begin(state.x, state.v, control.gravity, control.damping_per_s, sc.dt_s)
         s._initial_guess()
-        s._grad_hess(1)
+        s._grad_hess()
         a = s.assembled_matrix()
         times = []
         for _ in range(3):

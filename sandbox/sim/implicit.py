@@ -231,7 +231,7 @@ class ImplicitEulerSolver:
         line_search_cuts = 0
         previous = math.inf
         for _ in range(self.max_newton):
-            e0 = float(self._grad_hess(1)[0])
+            e0 = float(self._grad_hess()[0])
             newton += 1
             cg_total += self._solve()
             direct = self.pattern is not None  # then Δx comes from dx_np
@@ -245,7 +245,7 @@ class ImplicitEulerSolver:
                 converged = True
                 break
             line_search_cuts += self._line_search(e0)
-        res = float(self._grad_hess(0)[1])  # residual at the accepted point, for the stats
+        res = float(self._grad_hess()[1])  # residual at the accepted point, for the stats
         self._finish(state_out.x, state_out.v, index)
         self.last = {
             "newton_iterations": newton,
@@ -430,7 +430,7 @@ class ImplicitEulerSolver:
         if self.has_contact:
             self._contact_planes()
         self._trial_gravity(0.0)
-        self._grad_hess(1)
+        self._grad_hess()
         self._cg_init()
         self._cg_iter()
         self._cg_loop(1, 0.0)
@@ -624,10 +624,10 @@ class ImplicitEulerSolver:
         self._elastic_energy(x, self.energy_t)
 
     @ti.kernel
-    def _grad_hess(self, friction_force: ti.i32) -> ti.types.vector(2, ti.f64):
-        """∇E, per-element Hessians, block-Jacobi preconditioner and E at self.x; with
-        ``friction_force``, the normal force λ of a contact that had none at the start of
-        the step is first taken at self.x (:meth:`_update_contact_force`).
+    def _grad_hess(self) -> ti.types.vector(2, ti.f64):
+        """∇E, per-element Hessians, block-Jacobi preconditioner and E at self.x; the
+        normal force λ of a contact that had none at the start of the step (``c_new``) is
+        first taken at self.x (:meth:`_update_contact_force`).
 
         Returns (E [J], the largest force residual over the vertex weight)."""
         m = self.model
@@ -710,7 +710,7 @@ class ImplicitEulerSolver:
                 g += mi * ((xi - self.xh[i]) / (h * h) + self.gamma[None] * (xi - self.x0[i]) / h)
                 d += mi * c_mass * ti.Matrix.identity(REAL, 3)
                 if ti.static(self.has_contact):
-                    if friction_force and self.c_new[i]:
+                    if self.c_new[i]:
                         self._update_contact_force(i, xi)
                     _, gc, hc = self._contact_terms(i, xi)
                     g += gc
