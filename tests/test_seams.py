@@ -7,7 +7,13 @@ from sandbox.errors import SandboxError
 from sandbox.scene.build import build_scene
 from sandbox.scene.run import run_scene
 from sandbox.scene.spec import scene_from_dict
-from sandbox.sim.seams import SeamLine, match_springs, merge_lines, seam_direction_same
+from sandbox.sim.seams import (
+    SeamLine,
+    match_springs,
+    merge_lines,
+    seam_direction_same,
+    seam_openings,
+)
 from tests.helpers import sheet_spec
 
 
@@ -36,6 +42,26 @@ def test_points_between_get_two_springs_with_parametric_rest_lengths():
     assert sorted(pairs[mid, 1].tolist()) == [11, 12]
     np.testing.assert_allclose(sorted(rest[mid]), sorted([L * (0.5 - 1 / 3), L * (2 / 3 - 0.5)]))
     assert rest[~mid].max() == 0.0  # the ends coincide in parameter
+
+
+def test_the_seam_gap_is_the_distance_to_the_point_of_equal_parameter():
+    """The gap is how far apart the two sides are, not the springs' stretch: the other
+    line stretched along itself with the point still on it is closed (the springs are
+    stretched 10 %); a point 5 mm off the line sideways is 5 mm open."""
+    a = line([0, 1, 2], [0.0, 0.5, 1.0])
+    b = line([3, 4, 5, 6], [0.0, 1 / 3, 2 / 3, 1.0])
+    pairs, rest = match_springs(a, b)
+    x = np.zeros((7, 3))
+    x[:3, 1] = [0.0, 0.55, 1.1]  # the short side, stretched 10 % with the other
+    x[3:, 1] = np.array([0.0, 1 / 3, 2 / 3, 1.0]) * 1.1
+    gap = seam_openings(pairs, rest, x)
+    stretch = np.linalg.norm(x[pairs[:, 0]] - x[pairs[:, 1]], axis=1) - rest
+    assert stretch.max() > 0.008  # the old measure: 8 mm "open"
+    np.testing.assert_allclose(gap, 0.0, atol=1e-12)
+    x[1, 0] = 0.005  # the middle point 5 mm off the other line
+    gap = seam_openings(pairs, rest, x)
+    np.testing.assert_allclose(gap[pairs[:, 0] == 1], 0.005, rtol=1e-9)
+    np.testing.assert_allclose(gap[pairs[:, 0] != 1], 0.0, atol=1e-12)
 
 
 def test_several_edges_are_merged_into_one_line():

@@ -274,13 +274,13 @@ class Session:
             self.model.set_seam_stiffness(self._stiffness())
 
     def seam_gap_m(self) -> float:
-        """Largest seam spring stretch beyond its rest length [m] (0 without seams)."""
-        m = self.model
-        if not m.seam_count:
+        """Largest distance between a seam's two sides [m] (0 without seams), as a drape's
+        ``seam_gap_max_m`` (:func:`sandbox.scene.run.seam_gap_max`)."""
+        from sandbox.scene.run import seam_gap_max
+
+        if not self.model.seam_count:
             return 0.0
-        x = self.positions()
-        p = m.seam_pairs_np
-        return float(np.max(np.linalg.norm(x[p[:, 0]] - x[p[:, 1]], axis=1) - m.seam_rest_np))
+        return seam_gap_max(self.model, self.positions())
 
     def pattern_with_seams(self):
         """The session's pattern with its seams replaced by the ones sewn here."""

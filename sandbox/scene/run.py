@@ -144,6 +144,7 @@ def run_scene(
     if model.seam_count:
         metrics["seam_count"] = model.seam_count
         metrics["seam_gap_max_m"] = seam_gap_max(model, x_final)
+        metrics["seam_spring_stretch_max_m"] = seam_spring_stretch_max(model, x_final)
     metrics.update(contact_metrics(model, x_final))
     log.info("%s: %s after %d steps (%.2f s simulated, %.2f s wall)", spec.name, reason,
              steps, frame * frame_s, wall)  # fmt: skip
@@ -190,10 +191,21 @@ def contact_metrics(model, x: np.ndarray) -> dict:
 
 
 def seam_gap_max(model, x: np.ndarray) -> float:
-    """Largest seam spring stretch beyond its rest length [m] (0 when all seams closed)."""
-    p = model.seam_pairs_np
-    gap = np.linalg.norm(x[p[:, 0]] - x[p[:, 1]], axis=1) - model.seam_rest_np
+    """Largest distance between a seam's two sides [m] (0 when all seams are closed): at
+    each point of the shorter line, to the point of equal parameter on the other
+    (:func:`sandbox.sim.seams.seam_openings`)."""
+    from sandbox.sim.seams import seam_openings
+
+    gap = seam_openings(model.seam_pairs_np, model.seam_rest_np, x)
     return float(max(0.0, gap.max()))
+
+
+def seam_spring_stretch_max(model, x: np.ndarray) -> float:
+    """Largest seam spring stretch beyond its rest length [m]: the seam gap before the
+    twenty-second session (it counts the cloth's strain along a seam as an opening)."""
+    p = model.seam_pairs_np
+    stretch = np.linalg.norm(x[p[:, 0]] - x[p[:, 1]], axis=1) - model.seam_rest_np
+    return float(max(0.0, stretch.max()))
 
 
 def dt_warning(scene: Scene) -> str | None:

@@ -135,6 +135,32 @@ def sew(a: SeamLine, b: SeamLine, world: np.ndarray, direction: str = "auto"):
     return pairs, rest, not same
 
 
+def seam_openings(pairs: np.ndarray, rest: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """How far apart a seam's two sides are at each spring [m], (k,) for ``pairs`` (k, 2),
+    ``rest`` (k,) [m] and positions ``x`` (n, 3) [m].
+
+    The gap of Fig. 5(b)'s matching: at each point t_i of the shorter line, its distance to
+    the point of equal parameter on the other line. A zero-length spring's gap is its
+    length. A point between s_j and s_j+1 has two springs, emitted one after the other by
+    :func:`match_springs` (same first particle, both rest lengths > 0); its partner point
+    is s_j + w (s_j+1 − s_j) with w = r_1 / (r_1 + r_2), and both springs get that gap.
+    Their stretch beyond the rest lengths is not the gap: it counts the other line's own
+    strain along the seam as an opening (a 3 cm edge stretched 9 % "opens" 2.7 mm with the
+    point on it) and hardly sees the point leaving the line sideways (d²/2r). A spring
+    without a twin (not from :func:`match_springs`) keeps its stretch.
+    """
+    p = np.asarray(pairs, np.int64).reshape(-1, 2)
+    r = np.asarray(rest, float).reshape(-1)
+    length = np.linalg.norm(x[p[:, 0]] - x[p[:, 1]], axis=1)
+    gap = np.where(r > 0.0, length - r, length)
+    if len(p) > 1:
+        twin = np.flatnonzero((r[:-1] > 0.0) & (r[1:] > 0.0) & (p[:-1, 0] == p[1:, 0]))
+        w = (r[twin] / (r[twin] + r[twin + 1]))[:, None]
+        q = (1.0 - w) * x[p[twin, 1]] + w * x[p[twin + 1, 1]]
+        gap[twin] = gap[twin + 1] = np.linalg.norm(x[p[twin, 0]] - q, axis=1)
+    return gap
+
+
 def set_seam_springs(model, pairs, rest, stiffness) -> None:
     """Replace a running model's seam springs (click-to-sew, undo, clear).
 
