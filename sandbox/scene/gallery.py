@@ -387,7 +387,8 @@ def write_table(path, rows: list[dict], header: str = "") -> Path:
         "",
         "Seam gap: the largest distance between a seam's two sides (each point of one "
         "side to the point of the same parameter on the other, Fig. 5b). Inside body: "
-        "garment vertices inside the closed mannequin. Intersecting pairs: garment triangle pairs that cross (exact test). "
+        "garment vertices inside the closed mannequin. Intersecting pairs: garment triangle "
+        "pairs that cross (exact test). "
         "Top below anchor: how far the garment's highest point ends below the landmark it "
         "hangs from (shoulder point or waist; negative: above it); more than 3 cm counts as "
         "slid off. Folded: the share of the garment's area that ended turned over (normal "
