@@ -173,7 +173,7 @@ pencil skirt at 3 cm converges (about 25 s). At 1 cm Newton does not converge in
 iterations per 1/60 s step, neither while sewing nor after an explicit sewing phase (15-30 s
 per step on the A-line skirt, docs/implicit.md), so a drape would take hours. A finer mesh
 gets :func:`implicit_mesh_warning` (logged and kept in metrics.json), not an error. At 3 cm
-12 of the 14 garments meet the acceptance with it (docs/implicit.md, "The gallery with
+13 of the 14 garments meet the acceptance with it (docs/implicit.md, "The gallery with
 Newton steps stopped at the contact planes"; docs/gallery-implicit)."""
 DRAPE_MIN_TIME_S = 0.5
 DRAPE_TIME_LIMIT_S = 8.0
