@@ -174,7 +174,7 @@ def _add_drape_parsers(sub) -> None:
                    help="symplectic_euler (the paper's Eq. 2, default) or implicit_euler "
                    "(backward Euler at 1/60 s steps, docs/implicit.md; it meshes at 3 cm unless "
                    "--edge-cm says otherwise: finer, Newton does not converge and a drape "
-                   "takes hours; at 3 cm 13 of the 14 garments meet the acceptance, "
+                   "takes hours; at 3 cm all 14 garments meet the acceptance, "
                    "docs/gallery-implicit)")  # fmt: skip
     p.add_argument("--strain-damping", type=float, default=None, metavar="S",
                    help="the membrane's strain-rate damping in s (default 4e-6; 0: off; it "
