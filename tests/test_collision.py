@@ -333,6 +333,38 @@ def _l_prism():
     return np.asarray(mesh.vertices), np.asarray(mesh.faces)
 
 
+def test_contact_planes_find_the_nearest_face_whatever_the_reach():
+    """A reach wider than MAX_CELLS_PER_QUERY cells used to visit only the first cells of
+    the query box (lowest x first), so a vertex 5 mm outside a sphere on its +x side got a
+    face on the far -x side as its plane, 1-2 cm in front of it, and the implicit solver
+    lifted it out by that much (strain 1.63 in the stability report's x0.7 resize row).
+    The reach is now cut to what the cap can search, and the nearest face is found."""
+    import taichi as ti
+    import trimesh
+
+    from sandbox.collision.body import BodyCollider
+
+    ball = trimesh.creation.icosphere(subdivisions=4, radius=0.056)
+    body = BodyCollider(np.asarray(ball.vertices), np.asarray(ball.faces), thickness_m=0.003)
+    dirs = trimesh.creation.icosphere(subdivisions=1).vertices  # 42 directions
+    x = dirs * 0.061
+    out = ti.Vector.field(4, float, shape=len(x))
+    xs = ti.Vector.field(3, float, shape=len(x))
+    xs.from_numpy(x.astype(np.float64 if out.dtype == ti.f64 else np.float32))
+
+    @ti.kernel
+    def query(reach: float):
+        for i in xs:
+            count, n1, o1, _n2, _o2 = body.contact_planes(xs[i], reach)
+            out[i] = ti.Vector([n1[0], n1[1], n1[2], count])
+
+    for reach in (0.01, 0.05, 0.2):  # 0.2 m: the whole ball in reach
+        query(reach)
+        r = out.to_numpy()
+        assert np.all(r[:, 3] >= 1), reach
+        assert np.einsum("ij,ij->i", r[:, :3], dirs).min() > 0.98, reach
+
+
 def test_contact_planes_add_a_crease_plane_only_where_the_body_is_concave():
     """BodyCollider.contact_planes: near the L's inner corner (a concave crease) the nearest
     face's plane and the other face's; near an outer corner (convex) the nearest face's

@@ -26,6 +26,12 @@ from sandbox.collision.primitives import point_triangle_closest
 from sandbox.errors import SandboxError
 
 MAX_CELLS_PER_QUERY = 512
+NEAREST_REACH_CELLS = (round(MAX_CELLS_PER_QUERY ** (1.0 / 3.0)) - 2) / 2
+"""A nearest-face query (:meth:`BodyCollider.contact_planes`) reaches at most this many cells
+[cell sizes]: its box then spans at most 8 cells an axis, 512 in all, so it is searched
+whole. A wider reach was searched only in its first 512 cells, lowest x first: a vertex
+5 mm outside a shrunk sphere (the stability report's x0.7 resize row, 2 cm + twice the
+step's reach) got a face on the far side as its plane and was lifted 1-2.3 cm (4 Dec 2026)."""
 # Triangles are binned with their box grown by this many thicknesses h. A vertex whose
 # step |x1 - x| is at most that pad finds, in the one cell of its end point x1, every
 # triangle within h of x1 and every triangle its step crosses (the crossing point is within
@@ -340,12 +346,14 @@ class BodyCollider:
 
     @ti.func
     def _nearest_face(self, x, reach, n1, q1, crease: ti.template()):
-        """``(found, t)``: the body face nearest to x within ``reach`` [m]; with ``crease``,
+        """``(found, t)``: the body face nearest to x within ``reach`` [m] (at most
+        :data:`NEAREST_REACH_CELLS` cells); with ``crease``,
         only faces that meet face 1 (normal n1, point q1 nearest to x) in a concave crease:
         their normal differs by more than CREASE_COS and q1 is in front of their plane."""
-        lo = self._cell_of(x - reach)
-        hi = self._cell_of(x + reach)
-        best = reach
+        within = ti.min(reach, NEAREST_REACH_CELLS * self.cell_size[None])  # searched whole
+        lo = self._cell_of(x - within)
+        hi = self._cell_of(x + within)
+        best = within
         found = 0
         t_best = 0
         cell = lo
