@@ -365,6 +365,33 @@ def test_contact_planes_find_the_nearest_face_whatever_the_reach():
         assert np.einsum("ij,ij->i", r[:, :3], dirs).min() > 0.98, reach
 
 
+def test_a_step_longer_than_the_query_box_still_stops_at_the_body():
+    """The continuous detection of a step whose box has more cells than a query visits
+    (MAX_CELLS_PER_QUERY) tests every triangle: a vertex crossing a 5.6 cm ball along its
+    diagonal in one 35 cm step (21 m/s at 1/60 s) used to pass through, since only the
+    box's first cells (its empty low-x corner) were searched."""
+    import taichi as ti
+    import trimesh
+
+    from sandbox.collision.body import BodyCollider
+
+    ball = trimesh.creation.icosphere(subdivisions=4, radius=0.056)
+    body = BodyCollider(np.asarray(ball.vertices), np.asarray(ball.faces), thickness_m=0.003)
+    out = ti.Vector.field(3, float, shape=2)
+    dt = 1.0 / 60.0
+
+    @ti.kernel
+    def move(x: ti.types.vector(3, float), v: ti.types.vector(3, float)):
+        out[0] = x + dt * body.respond(x, v, dt)
+
+    for sign in (1.0, -1.0):  # from the high corner and from the low one
+        x0 = np.full(3, 0.1 * sign)
+        move(ti.Vector(x0), ti.Vector(-2.0 * x0 / dt))
+        x1 = out.to_numpy()[0]
+        assert np.linalg.norm(x1) > 0.056, (sign, x1)  # stopped outside the ball
+        assert np.dot(x1, x0) > 0.0  # on the side it came from
+
+
 def test_contact_planes_add_a_crease_plane_only_where_the_body_is_concave():
     """BodyCollider.contact_planes: near the L's inner corner (a concave crease) the nearest
     face's plane and the other face's; near an outer corner (convex) the nearest face's

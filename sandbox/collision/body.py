@@ -431,11 +431,24 @@ class BodyCollider:
         best_d = 1e30
         best_q = ti.Vector([0.0, 0.0, 0.0])
         best_pn = ti.Vector([0.0, 0.0, 0.0])
+        # a step whose box has more cells than a query may visit tests every triangle
+        # instead (a 10 m/s impact at 1/60 s): visiting only the box's first cells, lowest x
+        # first, would miss crossings on its far side
+        span = hi - lo + 1
+        every = span[0] * span[1] * span[2] > MAX_CELLS_PER_QUERY
+        visits = self._cells_to_visit(lo, hi)
+        if every:
+            visits = 1
         cell = lo
-        for _ in range(self._cells_to_visit(lo, hi)):
+        for _ in range(visits):
             cid = self._cell_index(cell)
-            for e in range(self.cell_start[cid], self.cell_start[cid + 1]):
-                t = self.cell_entries[e]
+            first, last = self.cell_start[cid], self.cell_start[cid + 1]
+            if every:
+                first, last = 0, self.tri.shape[0]
+            for e in range(first, last):
+                t = e
+                if not every:
+                    t = self.cell_entries[e]
                 n = self.tri_normal[t]
                 s0 = n.dot(x) - self.tri_offset[t]
                 s1 = n.dot(x1) - self.tri_offset[t]
