@@ -112,8 +112,8 @@ SEW_AT_REST_IMPLICIT = True
 set to 0): the seams' pull moves the panels but is not kept as momentum. The explicit
 solver's :data:`SEW_SPEED_LIMIT_M_S` does not act on the implicit solver, and backward Euler
 at 1/60 s keeps what the seams give: the 3 cm circle skirt, placed with 10-13 cm gaps,
-reached 3 m/s in its second frame, its hem swung 9 cm up between the legs, the gaps grew to
-25-36 mm and the sewing stalled 22.7 mm open after 13 frames (65 s), with 222 crossing pairs
+reached 3 m/s in its second frame, its hem swung up to 22.8 cm between the legs, the gaps
+grew to 25-36 mm and the sewing stalled 22.7 mm open after 13 frames (65 s), with 222 crossing pairs
 to untangle. At rest after each frame its gaps were below 2 mm after 3 frames (18 s, the
 ramp included). With γ = 20/s instead (10 times the drape's damping) it still stalled
 12.9 mm open (ad-hoc traces, 4 Dec 2026).
