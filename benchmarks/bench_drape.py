@@ -6,7 +6,9 @@ prints one line of JSON: vertices, steps, dt, sewing and draping time (simulated
 the sewing step and cloth softening, compile time, convergence, seam gap, contact counts,
 ease, hem rise, folded area, acceptance. ``--sew-max-dt-ms 0`` sews without softening a stiff cloth
 (the code before 2 Dec 2026), for comparison with the default (``SEW_MAX_DT_S``);
-``--sew-gravity 1`` sews tops and dresses under full gravity (default 0.3). ``--size 8 12
+``--sew-gravity 1`` sews tops and dresses under full gravity (default 0.3);
+``--integrator implicit_euler --edge-cm 3 --no-sew-at-rest`` sews a skirt with the implicit
+solver keeping its velocities between sewing frames (before 4 Dec 2026). ``--size 8 12
 18`` drapes each garment on each size; ``--table`` ends with a Markdown table of the
 acceptance checks.
 """
@@ -94,6 +96,18 @@ def main(argv=None) -> int:
         "DRAPE_STRAIN_DAMPING_S, default 4e-6; 0: off)",
     )
     p.add_argument(
+        "--integrator",
+        choices=("symplectic_euler", "implicit_euler"),
+        default="symplectic_euler",
+        help="the drape's integrator (implicit_euler: use --edge-cm 3)",
+    )
+    p.add_argument(
+        "--no-sew-at-rest",
+        action="store_true",
+        help="implicit_euler: keep the velocities between sewing frames "
+        "(sandbox.scene.drape.SEW_AT_REST_IMPLICIT off, the code before 4 Dec 2026)",
+    )
+    p.add_argument(
         "--table",
         action="store_true",
         help="after the JSON lines, a Markdown table of the acceptance checks",
@@ -114,6 +128,8 @@ def main(argv=None) -> int:
         drape_module.SEW_FRICTION = args.sew_friction
     if args.strain_damping is not None:
         drape_module.DRAPE_STRAIN_DAMPING_S = args.strain_damping
+    if args.no_sew_at_rest:
+        drape_module.SEW_AT_REST_IMPLICIT = False
 
     runtime.init("cpu", float64=args.float64)
     garments = args.garments or (
@@ -129,7 +145,7 @@ def main(argv=None) -> int:
             # one directory per garment, size and mesh, so runs side by side do not clash
             out = ROOT / "out" / "bench_drape" / f"{Path(g).stem}_size{size}_{args.edge_cm:g}cm"
             res = drape(g, mannequin=mannequin, out_dir=out, edge_length_m=args.edge_cm / 100,
-                        fabric=args.fabric, progress=False,
+                        fabric=args.fabric, progress=False, integrator=args.integrator,
                         self_collision=not args.no_self_collision)  # fmt: skip
             row = {
                 "garment": g,
@@ -138,6 +154,8 @@ def main(argv=None) -> int:
                 "sew_max_dt_s": drape_module.SEW_MAX_DT_S,
                 "sew_speed_limit_m_s": drape_module.SEW_SPEED_LIMIT_M_S,
                 "sew_friction": drape_module.SEW_FRICTION,
+                "integrator": args.integrator,
+                "sew_at_rest_implicit": drape_module.SEW_AT_REST_IMPLICIT,
             }
             row.update({k: res.metrics.get(k) for k in KEYS})
             row["command_wall_s"] = time.perf_counter() - t0
