@@ -26,7 +26,7 @@ from sandbox.precision import add_precision_flags
 ROOT = Path(__file__).resolve().parents[1]
 KEYS = ("vertex_count", "fabric", "dt_s", "steps", "sew_sim_time_s", "sew_wall_time_s",
         "sew_frames", "sew_gap_m", "sew_dt_s", "sew_cloth_stiffness_factor",
-        "sew_gravity_fraction", "sew_stalled", "strain_damping_s", "sim_time_s",
+        "sew_gravity_fraction", "sew_stalled", "sew_at_rest", "strain_damping_s", "sim_time_s",
         "wall_time_s", "total_wall_time_s", "compile_time_s", "build_time_s",
         "converged", "stop_reason", "max_displacement_m", "mean_displacement_m",
         "seam_gap_max_m", "vertices_inside_body",

@@ -693,8 +693,8 @@ def sew(
     that start on the wrong side of another panel, like a sleeve cap over the bodice, can then
     reach their partner). Returns ``{"sew_sim_time_s", "sew_wall_time_s", "sew_frames",
     "sew_gap_m", "sew_dt_s", "sew_cloth_stiffness_factor", "sew_gravity_fraction",
-    "sew_stalled"}`` (``sew_dt_s`` and the factor: the sewing frames' step [s] and the cloth's
-    stiffness factor in them).
+    "sew_stalled", "sew_at_rest"}`` (``sew_dt_s`` and the factor: the sewing frames' step [s]
+    and the cloth's stiffness factor in them).
 
     ``gravity_fraction`` scales gravity while sewing. Default: :data:`SEW_GRAVITY_TOPS` for
     a garment that hangs from the shoulders (:func:`hangs_from`), none for one that hangs
@@ -799,7 +799,8 @@ def sew(
     out.update(sew_sim_time_s=done * frame_s, sew_wall_time_s=time.perf_counter() - t0,
                sew_frames=done, sew_gap_m=gap, sew_dt_s=frame_s / sew_steps,
                sew_cloth_stiffness_factor=soft,
-               sew_gravity_fraction=float(gravity_fraction), sew_stalled=stalled)  # fmt: skip
+               sew_gravity_fraction=float(gravity_fraction), sew_stalled=stalled,
+               sew_at_rest=at_rest)  # fmt: skip
     return out
 
 
