@@ -342,6 +342,7 @@ def test_contact_planes_find_the_nearest_face_whatever_the_reach():
     import taichi as ti
     import trimesh
 
+    from sandbox import runtime
     from sandbox.collision.body import BodyCollider
 
     ball = trimesh.creation.icosphere(subdivisions=4, radius=0.056)
@@ -350,7 +351,7 @@ def test_contact_planes_find_the_nearest_face_whatever_the_reach():
     x = dirs * 0.061
     out = ti.Vector.field(4, float, shape=len(x))
     xs = ti.Vector.field(3, float, shape=len(x))
-    xs.from_numpy(x.astype(np.float64 if out.dtype == ti.f64 else np.float32))
+    xs.from_numpy(x.astype(runtime.float_dtype()))
 
     @ti.kernel
     def query(reach: float):
