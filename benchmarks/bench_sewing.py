@@ -29,8 +29,11 @@ def main(argv=None) -> int:
     p.add_argument("--size", type=int, default=12)
     p.add_argument("--integrator", choices=("symplectic_euler", "implicit_euler"),
                    default="implicit_euler")  # fmt: skip
-    p.add_argument("--no-sew-at-rest", action="store_true",
-                   help="keep the velocities between sewing frames (SEW_AT_REST_IMPLICIT off)")
+    p.add_argument(
+        "--no-sew-at-rest",
+        action="store_true",
+        help="keep the velocities between sewing frames (SEW_AT_REST_IMPLICIT off)",
+    )
     args = p.parse_args(argv)
 
     from sandbox import runtime
