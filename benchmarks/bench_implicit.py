@@ -257,14 +257,15 @@ def cantilever():
 def garment():
     import scipy.sparse.linalg as spl
 
-    from sandbox.scene.drape import SEW_STIFFNESS_FACTOR, build_drape, make_mannequin
+    from sandbox.garment import DrapeConfig, SewingConfig, build_drape, make_mannequin
 
     body = make_mannequin(12)
+    implicit = DrapeConfig(integrator="implicit_euler")
     for name, edge, steps in (("pencil-skirt", 0.03, 4), ("t-shirt", 0.01, 0)):
-        sc = build_drape(name, body, edge_length_m=edge, integrator="implicit_euler")
+        sc = build_drape(name, body, edge_length_m=edge, config=implicit)
         s, state, control, model = sc.solver, sc.state, sc.control, sc.model
         control.gravity[None] = [0.0, 0.0, 0.0]
-        model.set_seam_stiffness(model.seam_stiffness_np * SEW_STIFFNESS_FACTOR)
+        model.set_seam_stiffness(model.seam_stiffness_np * SewingConfig().stiffness_factor)
         s.step(state, state, control, 0.0)  # compile
         for k in range(steps):
             s.step(state, state, control, sc.dt_s, k)
@@ -293,7 +294,8 @@ def garment():
 def garment_fine(steps: int = 3):
     """The A-line skirt at 1 cm (cotton, size 12), sewn by the drape's own explicit sewing
     phase, then stepped by the implicit solver at 1/60 s under gravity."""
-    from sandbox.scene.drape import build_drape, make_mannequin, sew
+    from sandbox.garment import build_drape, make_mannequin
+    from sandbox.garment.sewing import sew
     from sandbox.sim.implicit import ImplicitEulerSolver
 
     sc = build_drape("a-line-skirt", make_mannequin(12), edge_length_m=0.01)
@@ -319,7 +321,8 @@ def krylov_bound(name: str = "t-shirt", edge_m: float = 0.01, systems: int = 3):
     import scipy.sparse as sp
     import scipy.sparse.linalg as sla
 
-    from sandbox.scene.drape import build_drape, make_mannequin, sew
+    from sandbox.garment import build_drape, make_mannequin
+    from sandbox.garment.sewing import sew
     from sandbox.sim.implicit import ImplicitEulerSolver
 
     sc = build_drape(name, make_mannequin(12), edge_length_m=edge_m)
@@ -389,11 +392,17 @@ def drape_newton(name: str = "sleeveless-blouse", contact_in_energy: bool = True
     fabric): steps, unconverged steps, mean Newton iterations, line-search halvings, and the
     drape's acceptance figures. ``contact_in_energy=False`` runs the solver as before
     the nineteenth session (contact only after the solve)."""
-    from sandbox.scene.drape import build_drape, make_mannequin, resolve_pattern, run_drape
+    from sandbox.garment import (
+        DrapeConfig,
+        build_drape,
+        make_mannequin,
+        resolve_pattern,
+        run_drape,
+    )
 
     man = make_mannequin(12)
     sc = build_drape(resolve_pattern(name, man), man, edge_length_m=0.03,
-                     integrator="implicit_euler")  # fmt: skip
+                     config=DrapeConfig(integrator="implicit_euler"))  # fmt: skip
     s = sc.solver
     s.has_contact = contact_in_energy  # read when the kernels compile (first step)
     rows = []

@@ -29,9 +29,9 @@ def main(argv=None) -> int:
 
     import sandbox.pattern.place as place
     from sandbox.collision.metrics import body_inside_check
+    from sandbox.garment import garment_names, make_mannequin, resolve_pattern
     from sandbox.pattern.panel_mesh import mesh_pattern
     from sandbox.pattern.place import start_stretches
-    from sandbox.scene.drape import garment_names, make_mannequin, resolve_pattern
 
     if args.no_untangle:
         place.UNTANGLE_ROUNDS = 0

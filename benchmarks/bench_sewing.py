@@ -6,10 +6,10 @@ Prints one line of JSON a sewing frame (the ramp's included): the largest seam s
 stretch [mm], the fastest particle [m/s] at the frame's end (before a sewing-at-rest reset),
 how far the hem (the vertices placed within 1 cm of the garment's lowest point) has risen
 at most [cm], and the wall time [s]; then the sewing metrics
-(:func:`sandbox.scene.drape.sew`) and the untangling that follows (its ``pairs_before``: the
-crossing pairs sewing left). Default: the circle skirt at 3 cm with implicit Euler, the case
-behind ``SEW_AT_REST_IMPLICIT`` (docs/implicit.md, "Skirts sewn at rest");
-``--no-sew-at-rest`` keeps the velocities between frames, as before 4 Dec 2026.
+(:func:`sandbox.garment.sewing.sew`) and the untangling that follows (its ``pairs_before``:
+the crossing pairs sewing left). Default: the circle skirt at 3 cm with implicit Euler, the
+case behind ``SewingConfig.at_rest_implicit`` (docs/implicit.md); ``--no-sew-at-rest`` keeps
+the velocities between frames.
 """
 
 from __future__ import annotations
@@ -32,20 +32,27 @@ def main(argv=None) -> int:
     p.add_argument(
         "--no-sew-at-rest",
         action="store_true",
-        help="keep the velocities between sewing frames (SEW_AT_REST_IMPLICIT off)",
+        help="keep the velocities between sewing frames (SewingConfig.at_rest_implicit off)",
     )
     args = p.parse_args(argv)
 
     from sandbox import runtime
-    from sandbox.scene import drape as drape_module
+    from sandbox.garment import (
+        DrapeConfig,
+        SewingConfig,
+        build_drape,
+        make_mannequin,
+        resolve_pattern,
+    )
+    from sandbox.garment.repair import untangle_state
+    from sandbox.garment.sewing import sew
 
-    if args.no_sew_at_rest:
-        drape_module.SEW_AT_REST_IMPLICIT = False
+    config = DrapeConfig(integrator=args.integrator,
+                         sewing=SewingConfig(at_rest_implicit=not args.no_sew_at_rest))  # fmt: skip
     runtime.init("cpu")
-    mannequin = drape_module.make_mannequin(args.size)
-    pattern = drape_module.resolve_pattern(args.garment, mannequin)
-    scene = drape_module.build_drape(pattern, mannequin, edge_length_m=args.edge_cm / 100,
-                                     integrator=args.integrator)  # fmt: skip
+    mannequin = make_mannequin(args.size)
+    pattern = resolve_pattern(args.garment, mannequin)
+    scene = build_drape(pattern, mannequin, edge_length_m=args.edge_cm / 100, config=config)
     solver, state, model = scene.solver, scene.state, scene.model
     pairs, rest = model.seam_pairs_np, model.seam_rest_np
     x0 = state.positions()
@@ -67,9 +74,9 @@ def main(argv=None) -> int:
         }), flush=True)  # fmt: skip
 
     solver.advance = traced
-    out = drape_module.sew(scene)
+    out = sew(scene, config.sewing)
     print(json.dumps(out))
-    print(json.dumps(drape_module.untangle_state(scene, "after sewing")))  # as run_drape does
+    print(json.dumps(untangle_state(scene, "after sewing", config.repair)))  # as run_drape does
     return 0
 
 

@@ -216,8 +216,15 @@ def _add_drape_parsers(sub) -> None:
 
 
 def cmd_drape(args) -> int:
+    from sandbox.garment import (
+        DrapeConfig,
+        SewingConfig,
+        check_garment,
+        default_edge_m,
+        drape,
+        garment_names,
+    )
     from sandbox.mannequin.measurements import KEYS
-    from sandbox.scene.drape import check_garment, default_edge_m, drape, garment_names
 
     if args.list:  # before Taichi starts: its banner would mix into the list
         for name in garment_names():
@@ -237,7 +244,7 @@ def cmd_drape(args) -> int:
     measurements = {k: getattr(args, k) for k in KEYS if getattr(args, k) is not None}
     options = {
         "self_collision": not args.no_self_collision,
-        "sew_self_collision": not (args.fast_sew or args.no_self_collision),
+        "sewing": SewingConfig(self_collision=not (args.fast_sew or args.no_self_collision)),
         "integrator": args.integrator,
     }
     if args.time_limit is not None:
@@ -248,12 +255,12 @@ def cmd_drape(args) -> int:
         if not args.strain_damping >= 0:
             raise SandboxError(f"--strain-damping {args.strain_damping}: must be >= 0 s")
         options["strain_damping_s"] = args.strain_damping
+    config = DrapeConfig(**options)
     runtime.init(args.arch, float64=args.float64)
     res = drape(args.garment, size=args.size, measurements=measurements or None,
                 fabric=args.fabric, out_dir=args.out, edge_length_m=args.edge_cm / 100.0,
-                render=not args.no_render, meshes=not args.no_meshes,
-                progress=None if not args.quiet else False,
-                **options)  # fmt: skip
+                config=config, render=not args.no_render, meshes=not args.no_meshes,
+                progress=None if not args.quiet else False)  # fmt: skip
     if not args.quiet:
         m = res.metrics
         state = "converged" if m["converged"] else f"stopped ({m['stop_reason']})"
@@ -277,7 +284,7 @@ def cmd_drape(args) -> int:
                       f"crossing triangle pairs ({r['vertices_moved']} vertices moved, at most "
                       f"{r['largest_move_m'] * 1e3:.1f} mm)")  # fmt: skip
         verdict = "meets" if m.get("meets_acceptance") else "does not meet"
-        print(f"{verdict} the garments issue's acceptance (meets_acceptance in metrics.json)")
+        print(f"{verdict} the acceptance (meets_acceptance in metrics.json)")
         print("wrote:")
         for path in res.paths.values():
             print(f"  {path}")
@@ -286,7 +293,7 @@ def cmd_drape(args) -> int:
 
 def cmd_gallery(args) -> int:
     from sandbox import runtime
-    from sandbox.scene.gallery import gallery
+    from sandbox.garment.gallery import gallery
 
     runtime.init(args.arch, float64=args.float64)
     paths = gallery(args.out, quick=args.quick, size=args.size, names=args.only,

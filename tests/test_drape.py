@@ -1,4 +1,4 @@
-"""The drape pipeline (sandbox/scene/drape.py) and its CLI."""
+"""The garment drape pipeline (sandbox/garment) and its CLI."""
 
 import json
 import math
@@ -8,16 +8,12 @@ import numpy as np
 import pytest
 
 from sandbox.cli import main
+from sandbox.garment import DrapeConfig, build_drape, drape
+from sandbox.garment.config import IMPLICIT_GARMENT_EDGE_M, implicit_mesh_warning
+from sandbox.garment.metrics import ease_cm
 from sandbox.mannequin import build_mannequin
 from sandbox.mannequin.tape import girth_at
 from sandbox.pattern.spec import load_pattern
-from sandbox.scene.drape import (
-    IMPLICIT_GARMENT_EDGE_M,
-    build_drape,
-    drape,
-    ease_cm,
-    implicit_mesh_warning,
-)
 
 DATA = Path(__file__).parent / "data"
 
@@ -32,7 +28,7 @@ def skirt_run(mannequin, tmp_path_factory):
     """The 2-panel tube skirt, 3 cm mesh, jersey, draped to the stop rule."""
     out = tmp_path_factory.mktemp("skirt")
     res = drape(DATA / "drape_skirt.json", mannequin=mannequin, out_dir=out, edge_length_m=0.03,
-                progress=False, time_limit_s=4.0)  # fmt: skip
+                progress=False, config=DrapeConfig(time_limit_s=4.0))  # fmt: skip
     return res, out
 
 
@@ -50,7 +46,7 @@ def test_skirt_drapes_closed_outside_and_with_ease(skirt_run):
     assert m["ease_bust_cm"] is None  # a skirt does not reach the bust
     # the skirt hangs on the hips: it did not slide down the legs
     x = res.run.positions
-    hip_y = res.scene.mannequin.landmarks["hip_front"][1]
+    hip_y = res.scene.garment.mannequin.landmarks["hip_front"][1]
     assert x[:, 1].max() > hip_y + 0.1
 
 
@@ -77,7 +73,7 @@ def test_sewing_hands_back_the_scene_as_it_found_it(skirt_run):
     assert isinstance(m["sew_stalled"], bool) and m["sew_frames"] > 0
     assert m["sew_at_rest"] is False  # the explicit solver keeps its velocities
     assert scene.solver.speed_limit[None] == 0.0
-    body = [c for c in scene.model.colliders if hasattr(c, "mu_s")]
+    body = scene.model.colliders
     assert body and all(c.mu_s[None] == pytest.approx(0.4) for c in body)
     assert all(c.mu_k[None] == pytest.approx(0.3) for c in body)
 
@@ -103,7 +99,9 @@ def test_ease_of_a_cylinder(mannequin):
 
 def test_build_drape_top(mannequin):
     pattern = load_pattern(DATA / "drape_top.json")
-    scene = build_drape(pattern, mannequin, edge_length_m=0.04, self_collision=False)
+    scene = build_drape(
+        pattern, mannequin, edge_length_m=0.04, config=DrapeConfig(self_collision=False)
+    )
     model = scene.model
     assert [p.name for p in model.pieces] == ["front", "back"]
     assert model.seam_count > 0
@@ -120,10 +118,8 @@ def test_build_drape_top(mannequin):
 def test_cli_list_and_errors(capsys, tmp_path):
     assert main(["drape", "--list"]) == 0
     names = capsys.readouterr().out.split()
-    try:
-        from sandbox.drafting import garment_names
-    except ImportError:
-        garment_names = list
+    from sandbox.drafting import garment_names
+
     assert names == list(garment_names())
     assert main(["drape", "no-such-garment", "--out", str(tmp_path)]) == 2
     assert "unknown garment" in capsys.readouterr().err
@@ -136,8 +132,8 @@ def test_cli_list_and_errors(capsys, tmp_path):
 def test_implicit_drape_sews_and_drapes_the_tube_skirt(mannequin, tmp_path):
     """The implicit integrator runs the whole drape (sewing, self-collision, body contact)."""
     res = drape(DATA / "drape_skirt.json", mannequin=mannequin, out_dir=tmp_path,
-                edge_length_m=0.05, progress=False, time_limit_s=1.0, render=False,
-                integrator="implicit_euler")  # fmt: skip
+                edge_length_m=0.05, progress=False, render=False,
+                config=DrapeConfig(time_limit_s=1.0, integrator="implicit_euler"))  # fmt: skip
     m = res.metrics
     assert m["dt_s"] == pytest.approx(1 / 60)
     assert m["nan_positions"] == 0 and m["vertices_inside_body"] == 0
@@ -149,15 +145,16 @@ def test_implicit_drape_sews_and_drapes_the_tube_skirt(mannequin, tmp_path):
 def test_cli_implicit_drape_meshes_at_3_cm_unless_told(monkeypatch, tmp_path):
     """`drape --integrator implicit_euler` without --edge-cm meshes at 3 cm (1 cm would
     take hours); an explicit --edge-cm wins; symplectic Euler keeps 1 cm."""
-    import sandbox.scene.drape as drape_module
+    import sandbox.garment as garment_package
+    from sandbox.errors import SandboxError
 
     edges = []
 
     def fake_drape(garment, **kw):
-        edges.append((kw["integrator"], kw["edge_length_m"]))
-        raise drape_module.SandboxError("stop here")
+        edges.append((kw["config"].integrator, kw["edge_length_m"]))
+        raise SandboxError("stop here")
 
-    monkeypatch.setattr(drape_module, "drape", fake_drape)
+    monkeypatch.setattr(garment_package, "drape", fake_drape)
     base = ["drape", "a-line-skirt", "--out", str(tmp_path), "--quiet"]
     assert main([*base, "--integrator", "implicit_euler"]) == 2
     assert main([*base, "--integrator", "implicit_euler", "--edge-cm", "2"]) == 2
@@ -178,10 +175,7 @@ def test_implicit_drape_on_a_fine_mesh_warns():
 def test_the_seam_exclusion_narrows_to_the_partners(skirt_run):
     """Self-collision leaves out a vertex's seam partners (and their partners, for junctions
     of three panels) with their mesh neighbours (the default, so seams can close), or only
-    the partners when asked; edge-edge tests the same, or the partners alone with
-    ``NARROW_EDGE_EXCLUSION``."""
-    from sandbox.collision import self_contact
-
+    the partners when asked; edge-edge tests the same."""
     model = skirt_run[0].scene.model
     collider, pairs = model.self_collider, model.seam_pairs_np
 
@@ -196,19 +190,15 @@ def test_the_seam_exclusion_narrows_to_the_partners(skirt_run):
     a = int(pairs[0, 0])
     partners = sewn(a).union(*(sewn(b) for b in sewn(a))) - {a}
     assert sewn(a) <= partners
-    narrow = self_contact.NARROW_EDGE_EXCLUSION
     try:
-        for self_contact.NARROW_EDGE_EXCLUSION in (False, True):
-            collider.set_seam_partners(pairs, neighbours=True)
-            wide = excluded(a)
-            assert excluded(a, edges=True) == (partners if self_contact.NARROW_EDGE_EXCLUSION
-                                               else wide)  # fmt: skip
-            collider.set_seam_partners(pairs, neighbours=False)
-            assert excluded(a) == partners
-            assert excluded(a, edges=True) == partners
-            assert partners < wide and len(wide) >= len(partners) + 3
+        collider.set_seam_partners(pairs, neighbours=True)
+        wide = excluded(a)
+        assert excluded(a, edges=True) == wide
+        collider.set_seam_partners(pairs, neighbours=False)
+        assert excluded(a) == partners
+        assert excluded(a, edges=True) == partners
+        assert partners < wide and len(wide) >= len(partners) + 3
     finally:
-        self_contact.NARROW_EDGE_EXCLUSION = narrow
         collider.set_seam_partners(pairs)
 
 
@@ -216,12 +206,14 @@ def test_implicit_sewing_ends_each_frame_at_rest_so_the_circle_skirt_closes(mann
     """The 3 cm circle skirt is placed with 10-13 cm seam gaps. Backward Euler kept the
     seams' pull as momentum: 3 m/s in the second frame, the hem swung up between the legs
     and the sewing stalled 22.7 mm open after 13 frames. Ending every sewing frame at rest
-    (SEW_AT_REST_IMPLICIT) closes every seam below 2 mm within a few frames."""
-    from sandbox.scene.drape import SEW_AT_REST_IMPLICIT, resolve_pattern, sew
+    (SewingConfig.at_rest_implicit) closes every seam below 2 mm within a few frames."""
+    from sandbox.garment import SewingConfig, resolve_pattern
+    from sandbox.garment.sewing import sew
 
-    assert SEW_AT_REST_IMPLICIT
+    assert SewingConfig().at_rest_implicit
     scene = build_drape(resolve_pattern("circle-skirt", mannequin), mannequin,
-                        edge_length_m=0.03, integrator="implicit_euler")  # fmt: skip
+                        edge_length_m=0.03,
+                        config=DrapeConfig(integrator="implicit_euler"))  # fmt: skip
     x0 = scene.state.positions()
     pairs, rest = scene.model.seam_pairs_np, scene.model.seam_rest_np
     assert np.min(np.linalg.norm(x0[pairs[:, 0]] - x0[pairs[:, 1]], axis=1) - rest) > 0.05

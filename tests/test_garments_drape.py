@@ -17,15 +17,10 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from sandbox.garment import SewingConfig, drape, meets_acceptance
+from sandbox.garment.gallery import _row, write_table
+from sandbox.garment.metrics import fold_metrics, hang_metrics
 from sandbox.mannequin import build_mannequin
-from sandbox.scene.drape import (
-    SEW_GRAVITY_TOPS,
-    drape,
-    fold_metrics,
-    hang_metrics,
-    meets_acceptance,
-)
-from sandbox.scene.gallery import _row, write_table
 
 GARMENTS = {  # mesh edge [m] and the landmark the garment hangs from (hang_metrics)
     "tank-top": (0.03, "shoulder_point_left"),
@@ -53,8 +48,9 @@ def test_library_garment_meets_the_acceptance_on_a_coarse_mesh(name, mannequin, 
     assert m["intersecting_triangle_pairs"] == 0
     assert m["hangs_from"] == hangs_from and not m["slid_off"], m["top_below_anchor_m"]
     assert not m["rolled_up"], m["folded_area_pct"]
-    shoulders = hangs_from == "shoulder_point_left"  # tops and dresses: SEW_GRAVITY_TOPS
-    assert m["sew_gravity_fraction"] == (SEW_GRAVITY_TOPS if shoulders else 0.0)
+    shoulders = hangs_from == "shoulder_point_left"  # tops and dresses sew with some gravity
+    gravity_tops = SewingConfig().gravity_fraction_tops
+    assert m["sew_gravity_fraction"] == (gravity_tops if shoulders else 0.0)
     assert m["meets_acceptance"]
     assert m["edge_length_m"] == edge  # recorded for the gallery's --resume
 
@@ -143,7 +139,7 @@ def test_the_gallery_reads_back_drapes_already_written_with_the_same_settings(tm
 
     import imageio.v3 as iio
 
-    from sandbox.scene.gallery import earlier_drape, gallery
+    from sandbox.garment.gallery import earlier_drape, gallery
 
     m = {"garment": "tank-top", "mannequin_size": 12, "edge_length_m": 0.01, "fabric": "knit",
          "vertex_count": 6330, "wall_time_s": 60.0, "total_wall_time_s": 69.0,
@@ -179,7 +175,7 @@ def test_the_gallery_drapes_in_parallel_processes_and_reads_them_back(tmp_path):
     """``gallery --quick --jobs 2`` on two garments: two ``python -m sandbox drape``
     processes, their renders and metrics read back into one table, no meshes written."""
     from sandbox.errors import SandboxError
-    from sandbox.scene.gallery import gallery
+    from sandbox.garment.gallery import gallery
 
     with pytest.raises(SandboxError, match="jobs must be"):
         gallery(tmp_path, quick=True, names=["camisole"], jobs=0, progress=False)

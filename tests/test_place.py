@@ -153,7 +153,7 @@ def test_wrapped_panels_start_less_stretched_and_no_more_crossed(monkeypatch):
     largest stays below 2.2 x), the clearance is kept and the garment does not start with
     more crossing triangle pairs."""
     import sandbox.pattern.place as place
-    from sandbox.scene.drape import resolve_pattern
+    from sandbox.garment import resolve_pattern
 
     m = build_mannequin(size=12)
     pb = PlacementBody(m)
@@ -180,7 +180,7 @@ def test_sleeved_top_starts_without_crossings_at_a_fine_mesh(monkeypatch):
     (74 crossing pairs before :func:`untangle`); placed, the garment starts with none,
     still at its clearance from the body."""
     import sandbox.pattern.place as place
-    from sandbox.scene.drape import resolve_pattern
+    from sandbox.garment import resolve_pattern
 
     m = build_mannequin(size=12)
     pb = PlacementBody(m)

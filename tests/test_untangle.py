@@ -89,12 +89,12 @@ def test_the_drape_untangles_its_state_in_place_and_stops_the_moved_vertices():
     state, the moved vertices' velocities zeroed, the others' kept, a record returned."""
     from types import SimpleNamespace
 
-    from sandbox.scene.drape import untangle_state
+    from sandbox.garment.repair import untangle_state
 
     x, tri, uv, spike = _two_sheets(0.004)
     v = np.full_like(x, 0.1)
     model = SimpleNamespace(tri_indices_np=tri, rest_uv_np=uv, seam_pairs_np=None)
-    scene = SimpleNamespace(model=model, state=_State(x, v), placement_body=None)
+    scene = SimpleNamespace(model=model, state=_State(x, v), garment=None)
     rec = untangle_state(scene, "after sewing")
     assert rec["when"] == "after sewing" and rec["pairs_before"] > 0 and rec["pairs_after"] == 0
     assert count_intersecting_pairs(scene.state.x, tri) == 0
@@ -113,12 +113,14 @@ def test_a_drape_ending_tangled_is_untangled_and_settled_with_the_seam_zone_narr
 ):
     """``run_drape``'s repair: a drape that ends with crossing pairs is untangled and
     settled again with the self-collision's seam exclusion narrowed to the partners
-    (``REPAIR_NARROW_EXCLUSION``); one that ends without any is left alone."""
+    (``RepairConfig.narrow_seam_exclusion``); one that ends without any is left alone."""
     import dataclasses
     from types import SimpleNamespace
 
-    import sandbox.scene.drape as drape_mod
+    import sandbox.garment.drape as drape_mod
+    import sandbox.garment.repair as repair_mod
     import sandbox.scene.run as run_mod
+    from sandbox.garment import DrapeConfig
 
     @dataclasses.dataclass
     class Stop:
@@ -159,14 +161,16 @@ def test_a_drape_ending_tangled_is_untangled_and_settled_with_the_seam_zone_narr
         model = SimpleNamespace(seam_count=4, seam_pairs_np=np.array([[0, 1], [2, 3]]),
                                 strain_damping_s={None: 0.0})  # fmt: skip
         return SimpleNamespace(spec=Spec(Stop()), model=model,
-                               solver=SimpleNamespace(self_collider=collider))  # fmt: skip
+                               solver=SimpleNamespace(self_collider=collider),
+                               garment=SimpleNamespace(config=DrapeConfig()))  # fmt: skip
 
-    monkeypatch.setattr(drape_mod, "sew", lambda sc, **kw: {"sew_wall_time_s": 1.0})
+    monkeypatch.setattr(drape_mod, "sew", lambda sc, config: {"sew_wall_time_s": 1.0})
 
-    def fake_untangle(sc, when=""):
+    def fake_untangle(sc, when="", config=None):
         return {"when": when, "pairs_before": 2, "pairs_after": 0}
 
     monkeypatch.setattr(drape_mod, "untangle_state", fake_untangle)
+    monkeypatch.setattr(repair_mod, "untangle_state", fake_untangle)
     res = drape_mod.run_drape(scene([2, 0]))
     assert calls == [("run", False, 0.5), ("partners", False), ("run", True, 0.2)]
     assert res.metrics["intersecting_triangle_pairs"] == 0

@@ -7,10 +7,10 @@ matching), undo or clear seams, run frames, pin, drag, reset, save. The GGUI win
 (:mod:`sandbox.app.gui`) and the off-screen scripts (:mod:`sandbox.app.script`) call these
 methods; neither holds any physics of its own.
 
-Data path: pattern + mannequin (numpy) -> :func:`sandbox.scene.drape.build_drape` (no seams
+Data path: pattern + mannequin (numpy) -> :func:`sandbox.garment.build_drape` (no seams
 sewn, room for seam springs) -> Taichi Model/State -> ``solver.advance`` per frame. Seams made
 here are :class:`~sandbox.pattern.spec.SeamSpec` records, the same a pattern file holds;
-their springs come from :func:`sandbox.scene.drape.seam_springs` and are swapped in with
+their springs come from :func:`sandbox.garment.seam_springs` and are swapped in with
 :func:`sandbox.sim.seams.set_seam_springs` (no recompilation). Resizing rebuilds the body
 with the paper's §2.1.4 rule and moves the collider (:meth:`BodyCollider.update`); the cloth
 keeps simulating around it.
@@ -65,7 +65,7 @@ class Session:
                  fabric: str | None = None, sewn: bool = False,
                  self_collision: bool = False):  # fmt: skip
         from sandbox import runtime
-        from sandbox.scene.drape import build_drape, make_mannequin, resolve_pattern
+        from sandbox.garment import DrapeConfig, build_drape, make_mannequin, resolve_pattern
 
         runtime.ensure_init()
         if not (edge_cm > 0 and math.isfinite(edge_cm)):
@@ -82,7 +82,8 @@ class Session:
         for mesh in mesh_pattern(self.pattern, edge_cm / 100.0).values():
             meshes_boundary += len(mesh.boundary)
         self.scene = build_drape(self.pattern, self.mannequin, fabric=fabric,
-                                 edge_length_m=edge_cm / 100.0, self_collision=self_collision,
+                                 edge_length_m=edge_cm / 100.0,
+                                 config=DrapeConfig(self_collision=self_collision),
                                  sew_pattern=False,
                                  seam_capacity=2 * meshes_boundary + 16)  # fmt: skip
         self.model = self.scene.model
@@ -119,7 +120,7 @@ class Session:
         sc, m = self.scene, self.model
         if sc.spec.simulation.integrator != "symplectic_euler":
             return
-        k_live = LIVE_SEAM_FACTOR * sc.seam_stiffness_N_m
+        k_live = LIVE_SEAM_FACTOR * sc.garment.seam_stiffness_N_m
         m_min = float(m.mass_np[~m.pinned_np].min()) if (~m.pinned_np).any() else 1.0
         dt_cloth = sc.dt_limit_s if math.isfinite(sc.dt_limit_s) else sc.dt_s
         limit = 1.0 / math.sqrt(1.0 / dt_cloth**2 + 3.0 * k_live / (4.0 * m_min))
@@ -133,7 +134,7 @@ class Session:
         """Every panel edge as ``(panel, edge index, global particle indices along it)``."""
         out = []
         for piece in self.model.pieces:
-            mesh = self.scene.meshes[piece.name]
+            mesh = self.scene.garment.meshes[piece.name]
             for k, idx in enumerate(mesh.edge_vertices):
                 out.append((piece.name, k, np.asarray(idx, np.int64) + piece.particle_start))
         return out
@@ -240,7 +241,7 @@ class Session:
 
     def _apply_seams(self) -> None:
         """Springs of every seam (per seam, so each keeps its own stiffening ramp)."""
-        from sandbox.scene.drape import seam_springs
+        from sandbox.garment import seam_springs
         from sandbox.sim.seams import set_seam_springs
 
         while len(self._ramp) < len(self.seams):
@@ -300,8 +301,8 @@ class Session:
         ``back_width``, ``shoulder_length``, ``back_length``; the others keep their values.
         The collider moves to the new body between two steps.
         """
+        from sandbox.garment import make_mannequin
         from sandbox.mannequin.measurements import KEYS
-        from sandbox.scene.drape import make_mannequin
 
         for k, v in cm.items():
             if k not in KEYS:

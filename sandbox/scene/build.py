@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -18,6 +19,9 @@ from sandbox.scene.spec import ClothSpec, PinSpec, SceneSpec
 from sandbox.sim.builder import ModelBuilder
 from sandbox.sim.model import Control, Model, State
 from sandbox.sim.solver import SymplecticEulerSolver
+
+if TYPE_CHECKING:
+    from sandbox.garment.build import GarmentContext
 
 DT_SAFETY = 0.9
 """Fraction of the estimated explicit stability limit used when ``dt_s = "auto"``."""
@@ -38,6 +42,9 @@ class Scene:
     dt_s: float
     steps_per_frame: int
     dt_limit_s: float
+    garment: GarmentContext | None = None
+    """A garment scene's pattern, mannequin and settings (:func:`sandbox.garment.build_drape`);
+    None for a scene file's scene."""
 
 
 def mesh_cloth(c: ClothSpec) -> tuple[np.ndarray, np.ndarray]:
@@ -230,6 +237,13 @@ def build_scene(spec: SceneSpec) -> Scene:
     model = builder.finalize(bending=spec.simulation.bending)
     model.colliders = [build_collider(c, spec.collision) for c in spec.colliders]
     model.self_collider = build_self_collider(model, spec)
+    return scene_from_model(spec, model)
+
+
+def scene_from_model(spec: SceneSpec, model: Model) -> Scene:
+    """The runnable Scene of a finished model (colliders and self-collider set): the step
+    from ``[simulation]`` (``dt_s = "auto"``: :data:`DT_SAFETY` x the stability estimate, or
+    :data:`IMPLICIT_DT_S`), a whole number of steps per frame, the control and the solver."""
     sim = spec.simulation
     frame = 1.0 / sim.frame_rate_hz
     limit = stable_dt_estimate(model)

@@ -195,19 +195,6 @@ class Model:
         self.seam_rest_np = rest if k else None
         self.seam_stiffness_np = stiffness if k else None
 
-    def scale_cloth_stiffness(self, factor: float) -> None:
-        """Membrane (E_u, E_v, E_s) and bending (E_b) stiffness := ``factor`` x the built
-        values (``tri_stiffness_np``, ``hinge_stiffness_np``, which stay as they are).
-
-        The sewing phase softens the cloth with its seams (:func:`sandbox.scene.drape.sew`);
-        ``factor = 1`` restores the material. Compiled kernels read the fields, so nothing
-        recompiles.
-        """
-        if self.tri_count:
-            self.tri_stiffness.from_numpy(_f(self.tri_stiffness_np * float(factor)))
-        if self.hinge_count:
-            self.hinge_stiffness.from_numpy(_f(self.hinge_stiffness_np * float(factor)))
-
     def set_seam_stiffness(self, stiffness: np.ndarray) -> None:
         """New stiffnesses (k,) [N/m] for the live springs (the sewing phase's ramp)."""
         pad = np.zeros(self.seam_capacity)

@@ -21,6 +21,7 @@ files).
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import time
@@ -61,10 +62,10 @@ def gallery(
     own ``python -m sandbox drape`` process (:func:`drape_in_processes`) with the CPU's
     threads shared out, then read them back. ``integrator``: ``"implicit_euler"`` drapes
     with backward Euler, on 3 cm meshes unless ``edge_length_m`` says otherwise
-    (:data:`~sandbox.scene.drape.IMPLICIT_GARMENT_EDGE_M`). Returns the written paths
+    (:data:`~sandbox.garment.config.IMPLICIT_GARMENT_EDGE_M`). Returns the written paths
     (sheet, table, JSON).
     """
-    from sandbox.scene.drape import default_edge_m, drape, garment_names, make_mannequin
+    from sandbox.garment import DrapeConfig, default_edge_m, drape, garment_names, make_mannequin
     from sandbox.scene.spec import INTEGRATORS
 
     library = garment_names()
@@ -87,10 +88,11 @@ def gallery(
     edge = edge_length_m
     if edge is None:
         edge = QUICK_EDGE_M if quick else default_edge_m(integrator)
-    options = {"fabric": QUICK_FABRIC, "time_limit_s": QUICK_TIME_LIMIT_S} if quick else {}
-    fabric = options.get("fabric")
-    if implicit:
-        options["integrator"] = integrator
+    fabric = QUICK_FABRIC if quick else None
+    time_limit_s = QUICK_TIME_LIMIT_S if quick else None
+    config = DrapeConfig(integrator=integrator)
+    if time_limit_s is not None:
+        config = dataclasses.replace(config, time_limit_s=time_limit_s)
 
     def read_back(names):  # {name: (metrics, front image)} of those already in out
         found = {n: earlier_drape(out / n, n, size, edge, fabric, integrator) for n in names}
@@ -102,7 +104,9 @@ def gallery(
     if jobs > 1:
         todo = [n for n in chosen if n not in earlier]
         failed = drape_in_processes(todo, out, size=size, edge_length_m=edge, jobs=jobs,
-                                    meshes=meshes, progress=progress, **options)  # fmt: skip
+                                    meshes=meshes, progress=progress, fabric=fabric,
+                                    time_limit_s=time_limit_s,
+                                    integrator=integrator)  # fmt: skip
         draped = read_back([n for n in todo if n not in failed])
     rows, tiles = [], []
     for i, name in enumerate(chosen):
@@ -127,7 +131,8 @@ def gallery(
         mannequin = mannequin or make_mannequin(size)
         try:
             res = drape(name, mannequin=mannequin, out_dir=out / name, edge_length_m=edge,
-                        progress=False, meshes=meshes, **options)  # fmt: skip
+                        fabric=fabric, config=config, progress=False,
+                        meshes=meshes)  # fmt: skip
         except SandboxError as exc:  # includes SimulationDiverged
             log.warning("%s: %s", name, exc)
             rows.append({"garment": name, "error": str(exc),
@@ -292,9 +297,10 @@ def _front_tile(res) -> np.ndarray:
     path = res.paths.get("render_front")
     if path is not None:
         return np.asarray(iio.imread(path))[:, :, :3]
-    from sandbox.scene.drape import drape_image
+    from sandbox.garment.output import drape_image
 
-    return drape_image(res.run.positions, res.scene.model.tri_indices_np, res.scene.mannequin)
+    scene = res.scene
+    return drape_image(res.run.positions, scene.model.tri_indices_np, scene.garment.mannequin)
 
 
 def write_sheet(path, tiles: list[tuple[str, np.ndarray | None]], *, tile_px: int = TILE_PX):

@@ -1,0 +1,234 @@
+"""Typed settings of a garment drape: what to simulate, how to sew, how to repair, what to accept.
+
+Every field has its unit in its name or docstring and a default chosen by measurement
+(docs/drape.md gives the figures). Settings are passed explicitly: ``drape(...,
+config=DrapeConfig(...))``, ``build_drape(..., config=...)``; nothing changes them at run time.
+Frozen, so ``dataclasses.replace(config, time_limit_s=4.0)`` makes a variant.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields
+
+from sandbox.errors import SandboxError
+from sandbox.scene.spec import INTEGRATORS
+
+
+def _check_positive(owner: str, **values: float) -> None:
+    for name, value in values.items():
+        if not (isinstance(value, int | float) and value > 0 and math.isfinite(value)):
+            raise SandboxError(f"{owner}.{name} must be a positive number, got {value!r}")
+
+
+def _check_nonnegative(owner: str, **values: float) -> None:
+    for name, value in values.items():
+        if not (isinstance(value, int | float) and value >= 0 and math.isfinite(value)):
+            raise SandboxError(f"{owner}.{name} must be a number >= 0, got {value!r}")
+
+
+@dataclass(frozen=True)
+class SewingConfig:
+    """The sewing phase (:func:`sandbox.garment.sewing.sew`): seams pull the placed panels
+    together at a fraction of their stiffness, then seams and cloth stiffen to full strength."""
+
+    gap_m: float = 2e-3
+    """Sewing ends when every seam spring is shorter than this [m] (or at ``time_limit_s``)."""
+    time_limit_s: float = 1.5
+    """Longest simulated sewing time [s] before the stiffening ramp."""
+    stiffness_factor: float = 0.05
+    """Seam springs pull at this fraction of their final stiffness while the seams close: as
+    stiff as the cloth, so the seams then carry the garment's weight without a shock."""
+    self_collision: bool = True
+    """Cloth-cloth contact while sewing. Off, seams close about 3x faster, but a panel that
+    starts on the wrong side of another passes through it and the garment keeps those
+    crossings (3 cm: 44 crossing pairs on the T-shirt without it, 5 with it)."""
+    gravity_fraction_tops: float = 0.3
+    """Fraction of gravity while a garment that hangs from the shoulders is sewn (garments
+    hanging from the waist sew weightless, or their panels slide down before the seams hold).
+    Weightless, a blouse's back folds at the waist as the armholes pull the bodice up; at full
+    gravity the weight holds the seams open against their sewing stiffness."""
+    speed_limit_m_s: float = 3.0
+    """No particle keeps a speed above this [m/s] while the seams close (explicit solver;
+    0: none). A seam closing across a 10 cm gap pulls at the cloth's wave speed, and the shock
+    flings hems up into rolls; at 1 m/s the seams can no longer drag an end pressed into the
+    body past friction."""
+    friction_implicit: float = 0.0
+    """Body and cloth friction coefficient while sewing with ``implicit_euler``, whose friction
+    acts inside the step's energy and resists the seams' own pull into the body (at the scene's
+    0.4 the halter top's neck seams stalled 13.5 mm open at 3 cm). The explicit solver sews
+    with the scene's friction; the drape after sewing always has it."""
+    at_rest_implicit: bool = True
+    """With ``implicit_euler``, a garment sewn weightless (the skirts) ends every sewing frame
+    at rest: backward Euler at 1/60 s keeps the seams' pull as momentum (the circle skirt's
+    hem swung 22.8 cm up and the sewing stalled 22.7 mm open without it)."""
+    stall_frames: int = 6
+    """Frames over which the largest seam gap must shrink (see ``stall_shrink``)."""
+    stall_shrink: float = 0.95
+    """Sewing also ends when the largest gap is above this fraction of what it was
+    ``stall_frames`` frames before (``sew_stalled``): the last open spring is a corner held by
+    the body, which the ramp's stiffer seams close."""
+    ramp_frames: int = 6
+    """Frames over which the seams stiffen geometrically to their final stiffness."""
+
+    def __post_init__(self):
+        _check_positive("SewingConfig", gap_m=self.gap_m, time_limit_s=self.time_limit_s,
+                        stiffness_factor=self.stiffness_factor,
+                        stall_shrink=self.stall_shrink)  # fmt: skip
+        _check_nonnegative("SewingConfig", gravity_fraction_tops=self.gravity_fraction_tops,
+                           speed_limit_m_s=self.speed_limit_m_s,
+                           friction_implicit=self.friction_implicit)  # fmt: skip
+        for name in ("stall_frames", "ramp_frames"):
+            value = getattr(self, name)
+            if not (isinstance(value, int) and value >= 1):
+                raise SandboxError(f"SewingConfig.{name} must be a whole number >= 1, got "
+                                   f"{value!r}")  # fmt: skip
+
+
+@dataclass(frozen=True)
+class RepairConfig:
+    """Untangling crossing triangle pairs (:mod:`sandbox.garment.repair`)."""
+
+    after_sewing: bool = True
+    """Smooth away crossing pairs once the seams are sewn: a panel beside a closing seam can
+    slip through its neighbour in the seam zone, which self-collision leaves free so the seam
+    can close, and contact never undoes a crossing."""
+    max_passes: int = 2
+    """At most this many untangling passes in all (the one after sewing included); a drape
+    that ends with crossing pairs and has time left is untangled and settled again."""
+    settle_s: float = 0.2
+    """A repaired drape runs at least this long [s] before the stop rule is checked again."""
+    clearance_m: float = 3e-3
+    """Untangled vertices are pushed out to this distance from the body [m] (1.5 x the
+    contact thickness)."""
+    narrow_seam_exclusion: bool = True
+    """Settle a repaired drape with self-collision's seam exclusion narrowed to the seam
+    partners alone: the seams are closed by then, and with the partners' mesh neighbours left
+    free the panels beside a seam cross again."""
+
+    def __post_init__(self):
+        _check_positive("RepairConfig", settle_s=self.settle_s, clearance_m=self.clearance_m)
+        if not (isinstance(self.max_passes, int) and self.max_passes >= 0):
+            raise SandboxError(f"RepairConfig.max_passes must be a whole number >= 0, got "
+                               f"{self.max_passes!r}")  # fmt: skip
+
+
+@dataclass(frozen=True)
+class AcceptanceConfig:
+    """What a drape must reach to be accepted (``meets_acceptance`` in metrics.json)."""
+
+    seam_gap_m: float = 2e-3
+    """Largest distance between a seam's two sides [m]."""
+    penetration_m: float = 1e-3
+    """Deepest cloth vertex inside the body [m]."""
+    slide_tolerance_m: float = 0.03
+    """A garment has slid off when its top ends more than this [m] below the landmark it
+    hangs from."""
+    fold_tolerance_pct: float = 2.0
+    """A garment has rolled up when more than this share of its area [%] ends turned over."""
+
+    def __post_init__(self):
+        _check_positive("AcceptanceConfig", seam_gap_m=self.seam_gap_m,
+                        penetration_m=self.penetration_m,
+                        slide_tolerance_m=self.slide_tolerance_m,
+                        fold_tolerance_pct=self.fold_tolerance_pct)  # fmt: skip
+
+
+@dataclass(frozen=True)
+class DrapeConfig:
+    """A garment drape: the simulation's settings, and those of its sewing, repair and
+    acceptance. The defaults are the gallery's."""
+
+    integrator: str = "symplectic_euler"
+    """``"symplectic_euler"`` (the paper's Eq. 2) or ``"implicit_euler"`` (backward Euler)."""
+    dt_s: float | None = None
+    """Time step [s]; None: 0.9 x the explicit stability estimate, or 1/60 s implicit."""
+    damping_per_s: float = 2.0
+    """Mass-proportional damping γ [1/s] (F = -γ m v). A drape looks for the rest state, not
+    the motion: 4x the default scene's; the terminal speed g/γ ≈ 5 m/s is far above a drape's."""
+    strain_damping_s: float = 4e-6
+    """Strain-rate damping β [s] of the membrane (explicit only; implicit Euler damps its
+    fast modes itself). It settles the contact chatter that keeps stiff cloth moving on the
+    body at 1 cm (a mode of angular frequency ω decays at about β ω²/2 per second: 10-20 /s
+    for that chatter, 1e-4 /s for a garment swinging at 10 rad/s); it shortens the explicit
+    step by √(1+ζ²) − ζ, ζ = β / the undamped stable step (~18 % for cotton at 1 cm)."""
+    thickness_m: float = 2e-3
+    """Contact thickness against the body and the cloth itself [m]."""
+    self_collision: bool = True
+    """Cloth-cloth contact (Bridson et al. 2002) while the garment drapes."""
+    frame_rate_hz: float = 30.0
+    """Frames per second: the stop rule is checked once a frame."""
+    stop_max_m: float = 1.5e-3
+    """Stop rule (paper §2.2): every vertex moved less than this in one frame [m] ..."""
+    stop_mean_m: float = 1.0e-4
+    """... and the mean less than this [m]."""
+    min_time_s: float = 0.5
+    """The stop rule is not checked before this simulated time [s]."""
+    time_limit_s: float = 8.0
+    """Simulated time limit of the drape after sewing [s]."""
+    wall_limit_s: float = 1800.0
+    """Wall-clock limit of the drape after sewing [s]."""
+    seam_reference_edge_m: float = 0.01
+    """A seam spring is as stiff as the cloth (its larger stretch stiffness [N/m]) on a mesh
+    of this edge [m]; on a coarser mesh each spring carries a longer piece of seam, so its
+    stiffness grows with the edge and the seam's gap under the weight does not depend on
+    the mesh."""
+    sewing: SewingConfig = field(default_factory=SewingConfig)
+    repair: RepairConfig = field(default_factory=RepairConfig)
+    acceptance: AcceptanceConfig = field(default_factory=AcceptanceConfig)
+
+    def __post_init__(self):
+        if self.integrator not in INTEGRATORS:
+            raise SandboxError(f"integrator must be symplectic_euler or implicit_euler, got "
+                               f"{self.integrator!r}")  # fmt: skip
+        if self.dt_s is not None:
+            _check_positive("DrapeConfig", dt_s=self.dt_s)
+        _check_positive("DrapeConfig", thickness_m=self.thickness_m,
+                        frame_rate_hz=self.frame_rate_hz, stop_max_m=self.stop_max_m,
+                        stop_mean_m=self.stop_mean_m, time_limit_s=self.time_limit_s,
+                        wall_limit_s=self.wall_limit_s,
+                        seam_reference_edge_m=self.seam_reference_edge_m)  # fmt: skip
+        _check_nonnegative("DrapeConfig", damping_per_s=self.damping_per_s,
+                           strain_damping_s=self.strain_damping_s,
+                           min_time_s=self.min_time_s)  # fmt: skip
+
+    @property
+    def implicit(self) -> bool:
+        return self.integrator == "implicit_euler"
+
+
+def config_dict(config) -> dict:
+    """A config (nested dataclasses) as a plain dict, for metrics.json."""
+    out = {}
+    for f in fields(config):
+        value = getattr(config, f.name)
+        out[f.name] = config_dict(value) if hasattr(value, "__dataclass_fields__") else value
+    return out
+
+
+IMPLICIT_GARMENT_EDGE_M = 0.03
+"""Finest mesh edge [m] at which ``implicit_euler`` drapes converge: at 1 cm Newton does not
+converge in its iterations per 1/60 s step (15-30 s a step), so a drape takes hours. A finer
+mesh gets :func:`implicit_mesh_warning`, not an error."""
+
+EXPLICIT_GARMENT_EDGE_M = 0.01
+"""Mesh edge [m] of an explicit drape when none is given: the gallery's 1 cm."""
+
+
+def default_edge_m(integrator: str) -> float:
+    """The mesh edge [m] the CLI and the gallery use when none is given."""
+    return IMPLICIT_GARMENT_EDGE_M if integrator == "implicit_euler" else EXPLICIT_GARMENT_EDGE_M
+
+
+def implicit_mesh_warning(integrator: str, edge_length_m: float | None) -> str | None:
+    """The warning for an ``implicit_euler`` drape meshed finer than
+    :data:`IMPLICIT_GARMENT_EDGE_M`, or None."""
+    if integrator != "implicit_euler" or edge_length_m is None:
+        return None
+    if edge_length_m >= IMPLICIT_GARMENT_EDGE_M - 1e-9:
+        return None
+    return (f"implicit_euler at a {edge_length_m * 100:g} cm mesh: Newton does not converge "
+            f"within its iterations per step on garments finer than "
+            f"{IMPLICIT_GARMENT_EDGE_M * 100:g} cm (measured at 1 cm: 15-30 s per 1/60 s "
+            f"step, so hours per drape; docs/implicit.md). Use symplectic_euler at this mesh, "
+            f"or --edge-cm {IMPLICIT_GARMENT_EDGE_M * 100:g} with implicit_euler.")  # fmt: skip

@@ -1,0 +1,94 @@
+"""Drape a garment on the mannequin (paper §2.3-2.5 and Fig. 7), from start to files.
+
+pattern + mannequin -> :func:`~sandbox.garment.build.build_drape` (mesh, place, seams) ->
+:func:`~sandbox.garment.sewing.sew` -> :func:`~sandbox.garment.repair.untangle_state` ->
+:func:`~sandbox.scene.run.run_scene` (the paper's stop rule) ->
+:func:`~sandbox.garment.repair.settle_repaired` -> :func:`~sandbox.garment.metrics.drape_metrics`
+-> :func:`~sandbox.garment.output.write_drape`.
+
+The settings of every stage are one :class:`~sandbox.garment.config.DrapeConfig`.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+from sandbox.garment.build import build_drape
+from sandbox.garment.config import DrapeConfig
+from sandbox.garment.inputs import make_mannequin, resolve_pattern
+from sandbox.garment.metrics import drape_metrics
+from sandbox.garment.output import write_drape
+from sandbox.garment.repair import settle_repaired, untangle_state
+from sandbox.garment.sewing import sew
+
+
+@dataclass
+class DrapeResult:
+    """A finished drape: the scene, the run, the metrics written and the files."""
+
+    scene: object
+    run: object
+    metrics: dict
+    paths: dict = field(default_factory=dict)
+
+
+def drape(
+    garment_or_path,
+    *,
+    out_dir,
+    size: int | None = None,
+    measurements: dict | None = None,
+    fabric=None,
+    edge_length_m: float | None = 0.01,
+    config: DrapeConfig | None = None,
+    render: bool = True,
+    meshes: bool = True,
+    progress: bool | None = None,
+    mannequin=None,
+) -> DrapeResult:
+    """Drape a garment (library name, pattern file or dict) on a mannequin and write it.
+
+    The mannequin is ``mannequin`` if given, else the database ``size`` (default 12)
+    resized by ``measurements`` (cm). ``config`` holds every setting of the simulation,
+    the sewing, the repair and the acceptance (default :class:`DrapeConfig`). Writes into
+    ``out_dir``: ``garment.obj`` / ``garment.ply`` (UVs = pattern coordinates [m]),
+    ``body.obj``, ``render.png`` (front), ``render_back.png`` and ``metrics.json``
+    (``meshes=False``: no meshes). Raises SandboxError on bad input and SimulationDiverged
+    (nothing written) if the run blows up.
+    """
+    if mannequin is None:
+        mannequin = make_mannequin(size, measurements)
+    pattern = resolve_pattern(garment_or_path, mannequin)
+    t0 = time.perf_counter()
+    scene = build_drape(pattern, mannequin, fabric=fabric, edge_length_m=edge_length_m,
+                        config=config)  # fmt: skip
+    build_s = time.perf_counter() - t0
+    result = run_drape(scene, progress=progress)
+    metrics = drape_metrics(scene, result, build_s=build_s)
+    paths = write_drape(scene, result, metrics, out_dir, render=render, meshes=meshes)
+    return DrapeResult(scene, result, metrics, paths)
+
+
+def run_drape(scene, *, progress: bool | None = None):
+    """Sew, untangle, then drape under gravity to the paper's stop rule (``run_scene``),
+    repairing a drape that ends tangled; the settings are the scene's ``garment.config``.
+
+    The RunResult's metrics get the sewing phase's keys, the untangling passes
+    (``untangle``, ``untangled_pairs``), ``strain_damping_s`` and ``total_wall_time_s``.
+    """
+    from sandbox.scene.run import run_scene
+
+    config = scene.garment.config
+    sewn = sew(scene, config.sewing)
+    repairs = []
+    if config.repair.after_sewing:
+        repairs.append(untangle_state(scene, "after sewing", config.repair))
+    result = run_scene(scene, progress=progress)
+    result = settle_repaired(scene, result, repairs, config.repair, progress=progress)
+    result.metrics.update(sewn)
+    result.metrics["untangle"] = repairs
+    result.metrics["untangled_pairs"] = sum(r["pairs_before"] - r["pairs_after"] for r in repairs)
+    result.metrics["strain_damping_s"] = float(scene.model.strain_damping_s[None])
+    result.metrics["total_wall_time_s"] = result.metrics["wall_time_s"] + sewn["sew_wall_time_s"]
+    return result

@@ -1,0 +1,189 @@
+"""What a finished drape is measured by, and whether it is accepted.
+
+metrics.json of a drape: the run's own metrics (:func:`~sandbox.scene.run.run_scene`: stop
+rule, seam gap, contact), the garment and the body it was draped on, the ease at bust,
+waist and hip (:func:`ease_cm`), whether it hangs where it should (:func:`hang_metrics`),
+how much of it turned over (:func:`fold_metrics`) and the verdict
+(:func:`meets_acceptance`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sandbox.errors import SandboxError
+from sandbox.garment.config import AcceptanceConfig, config_dict
+from sandbox.garment.inputs import measurements_dict
+
+EASE_LANDMARKS = {"bust": "bust_point_left", "waist": "waist_front", "hip": "hip_front"}
+"""The landmark whose height each ease is measured at."""
+
+
+def drape_metrics(scene, result, *, build_s: float = 0.0) -> dict:
+    """metrics.json of a drape: the run's metrics, the garment, the body and the ease."""
+    g = scene.garment
+    model, mannequin = scene.model, g.mannequin
+    m = dict(result.metrics)
+    m.setdefault("seam_gap_max_m", None)
+    m.update(
+        garment=g.pattern.name,
+        pattern_source=g.pattern.source,
+        panels=[p.name for p in model.pieces],
+        fabric=model.pieces[0].material.name,
+        mannequin_size=mannequin.size,
+        mannequin_measurements_cm=measurements_dict(mannequin),
+        edge_length_m=g.edge_length_m,
+        integrator=scene.spec.simulation.integrator,
+        integrator_warning=g.integrator_warning,
+        damping_per_s=float(scene.control.damping_per_s[None]),
+        self_collision=scene.model.self_collider is not None,
+        build_time_s=build_s,
+        nan_positions=int(np.count_nonzero(~np.isfinite(result.positions))),
+        drape_config=config_dict(g.config),
+    )
+    acceptance = g.config.acceptance
+    m.update(ease_cm(result.positions, model.tri_indices_np, mannequin, g.placement_body))
+    m.update(hang_metrics(model.initial_positions_np, result.positions, mannequin, acceptance))
+    m.update(fold_metrics(model.initial_positions_np, result.positions, model.tri_indices_np,
+                          g.placement_body, acceptance))  # fmt: skip
+    m["meets_acceptance"] = meets_acceptance(m, acceptance)
+    return m
+
+
+def ease_cm(x: np.ndarray, triangles: np.ndarray, mannequin, body=None) -> dict:
+    """Ease at bust, waist and hip: garment girth minus body girth [cm].
+
+    At the height of each landmark (bust point, waist front, hip front), the garment's
+    section (all its pieces cut by the horizontal plane) is reduced to the pieces around
+    the torso (cut lines whose centre lies within 75 % of the torso's half-width: sleeves
+    are left out) and measured like the tape measure measures the body: the perimeter of
+    the convex hull. ``None`` where the garment does not reach that height or its cut does
+    not go around the body axis.
+    Returns ``{"ease_bust_cm", "ease_waist_cm", "ease_hip_cm", "garment_girth_*_cm",
+    "body_girth_*_cm"}``.
+    """
+    from scipy.spatial import ConvexHull, QhullError
+
+    from sandbox.mannequin.tape import girth_at, section_polylines
+    from sandbox.pattern.place import PlacementBody
+
+    body = body or PlacementBody(mannequin)
+    out = {}
+    for key, lm in EASE_LANDMARKS.items():
+        out[f"ease_{key}_cm"] = None
+        out[f"garment_girth_{key}_cm"] = None
+        out[f"body_girth_{key}_cm"] = None
+        if lm not in body.landmarks:
+            continue
+        y = float(body.landmarks[lm][1])
+        frame = body.frame("torso", y)
+        axis = frame.origin[[0, 2]]
+        try:
+            body_girth = girth_at(body.vertices, body.triangles, y, axis_xz=axis)
+        except SandboxError:
+            continue
+        out[f"body_girth_{key}_cm"] = 100.0 * body_girth
+        sel = body.vertices[body.parts["torso"] & (np.abs(body.vertices[:, 1] - y) < 0.02)]
+        half = float(np.abs(sel[:, 0] - axis[0]).max()) if len(sel) else 0.2
+        cuts = section_polylines(x, triangles, (0.0, y, 0.0), (0.0, 1.0, 0.0))
+        pts = [p[:, [0, 2]] for p, _ in cuts if abs(p[:, 0].mean() - axis[0]) <= 0.75 * half]
+        if not pts:
+            continue
+        p2 = np.vstack(pts)
+        try:
+            hull = ConvexHull(p2)
+        except QhullError:
+            continue
+        if np.any(hull.equations[:, :2] @ axis + hull.equations[:, 2] > 0):
+            continue  # the cut does not go around the body
+        girth = float(hull.area)
+        out[f"garment_girth_{key}_cm"] = 100.0 * girth
+        out[f"ease_{key}_cm"] = 100.0 * (girth - body_girth)
+    return out
+
+
+def hangs_from(x_start: np.ndarray, mannequin) -> str:
+    """The landmark a garment placed at ``x_start`` (n, 3) [m] hangs from: the shoulders
+    (``shoulder_point_left``) when its top is above half-way between the waist and the
+    shoulder points, else the waist (``waist_front``)."""
+    lm = mannequin.landmarks
+    shoulder, waist = float(lm["shoulder_point_left"][1]), float(lm["waist_front"][1])
+    start_top = float(np.max(np.asarray(x_start)[:, 1]))
+    return "shoulder_point_left" if start_top > 0.5 * (shoulder + waist) else "waist_front"
+
+
+def hang_metrics(x_start: np.ndarray, x_end: np.ndarray, mannequin,
+                 acceptance: AcceptanceConfig | None = None) -> dict:  # fmt: skip
+    """Which landmark the garment hangs from, whether it slid off and how far its hem rose.
+
+    Returns ``hangs_from`` (:func:`hangs_from`), ``top_below_anchor_m`` (the landmark's
+    height minus the final top's [m]; negative: the top is above it), ``slid_off`` (that
+    distance is more than :attr:`AcceptanceConfig.slide_tolerance_m`) and ``hem_rise_m``
+    (the final lowest point's height minus the placed one's [m]; a garment whose hem folds
+    up rises, but so does one that started stretched downwards, so :func:`fold_metrics`
+    decides).
+    """
+    tolerance = (acceptance or AcceptanceConfig()).slide_tolerance_m
+    lm = mannequin.landmarks
+    name = hangs_from(x_start, mannequin)
+    below = float(lm[name][1]) - float(np.max(np.asarray(x_end)[:, 1]))  # NaN: slid_off
+    rise = float(np.min(np.asarray(x_end)[:, 1])) - float(np.min(np.asarray(x_start)[:, 1]))
+    return {"hangs_from": name, "top_below_anchor_m": below,
+            "slid_off": bool(not below <= tolerance), "hem_rise_m": rise}  # fmt: skip
+
+
+def fold_metrics(x_start: np.ndarray, x_end: np.ndarray, triangles: np.ndarray,
+                 body=None, acceptance: AcceptanceConfig | None = None) -> dict:  # fmt: skip
+    """How much of a garment ended turned over: ``folded_area_pct``, the area [%] (at the
+    start) of the triangles turned over, and ``rolled_up``, that share above
+    :attr:`AcceptanceConfig.fold_tolerance_pct` (or NaN positions).
+
+    A garment hanging from the body keeps its outside out; a hem folded up into a roll, or
+    a back panel caught in a fold, turns a band of cloth over. A triangle is turned over
+    when its normal turned more than 90 degrees and, with ``body`` (a
+    :class:`~sandbox.pattern.place.PlacementBody`), the side of it that faced away from the
+    body at the start also faces it at the end (its normal against the nearest body
+    normal). A strap that bends over the shoulder as it should turns its normal but still
+    faces out, so it is not counted; nor is a flare that a hanging hand presses in towards
+    the thigh, which faces the hand (the nearest body part) but has not turned.
+    """
+    tolerance = (acceptance or AcceptanceConfig()).fold_tolerance_pct
+    t = np.asarray(triangles, np.int64)
+
+    def normals(x):
+        x = np.asarray(x, float)
+        return np.cross(x[t[:, 1]] - x[t[:, 0]], x[t[:, 2]] - x[t[:, 0]])
+
+    def outward(x, n):
+        c = np.asarray(x, float)[t].mean(axis=1)
+        return np.sum(n * body.surface_normals(c), axis=1) > 0
+
+    n0, n1 = normals(x_start), normals(x_end)
+    area = np.linalg.norm(n0, axis=1)
+    finite = bool(np.all(np.isfinite(x_end)))
+    turned = np.sum(n0 * n1, axis=1) < 0
+    if body is not None and finite:
+        turned &= outward(x_start, n0) != outward(x_end, n1)
+    pct = float(100.0 * area[turned].sum() / max(area.sum(), 1e-300))
+    return {"folded_area_pct": pct if finite else float("nan"),
+            "rolled_up": bool(not finite or pct > tolerance)}  # fmt: skip
+
+
+def meets_acceptance(m: dict, acceptance: AcceptanceConfig | None = None) -> bool:
+    """The acceptance for one drape's metrics: converged by the stop rule, largest seam gap
+    and deepest vertex inside the body within :class:`AcceptanceConfig`'s limits, no
+    intersecting cloth triangle pairs, not slid off (:func:`hang_metrics`), not rolled up
+    (:func:`fold_metrics`), no NaN."""
+    a = acceptance or AcceptanceConfig()
+    gap = m.get("seam_gap_max_m")
+    depth = m.get("penetration_max_m")
+    return bool(
+        m.get("converged")
+        and (gap is None or gap <= a.seam_gap_m)
+        and depth is not None
+        and depth <= a.penetration_m
+        and m.get("intersecting_triangle_pairs") == 0
+        and not m.get("slid_off", False)
+        and not m.get("rolled_up", False)
+        and m.get("nan_positions", 0) == 0
+    )
