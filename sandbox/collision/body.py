@@ -404,6 +404,10 @@ class BodyCollider:
         v_move, _ = self.respond_split(x, v, dt)
         return v_move
 
+    # One piece: a Taichi function inlined into the solver's per-vertex loop; the crossing
+    # test, the thickness push and friction share the step's local state (the plane, the
+    # normal velocity) and run in this order for every vertex, so splitting it would only
+    # pass that state through more arguments.
     @ti.func
     def respond_split(self, x, v, dt):
         """Contact response of a vertex at x(t) with predicted velocity v(t+dt) [m/s].

@@ -73,6 +73,8 @@ def build_drape(
         seam_capacity: room for this many more seam springs, sewn while the scene runs.
     Returns the Scene, with ``scene.garment`` its :class:`GarmentContext`.
     """
+    # Taichi-backed modules load when a scene is built, not when the package is imported:
+    # `drape --list` and the input checks run before Taichi starts
     from sandbox import runtime
     from sandbox.collision.body import BodyCollider
     from sandbox.pattern.panel_mesh import mesh_pattern, pattern_seam_sides

@@ -65,26 +65,11 @@ def gallery(
     (:data:`~sandbox.garment.config.IMPLICIT_GARMENT_EDGE_M`). Returns the written paths
     (sheet, table, JSON).
     """
-    from sandbox.garment import DrapeConfig, default_edge_m, drape, garment_names, make_mannequin
-    from sandbox.scene.spec import INTEGRATORS
+    from sandbox.garment import DrapeConfig, default_edge_m
 
-    library = garment_names()
-    if not library:
-        raise SandboxError("gallery: the garment library is empty (sandbox.drafting)")
-    chosen = list(names) if names else library
-    unknown = [n for n in chosen if n not in library]
-    if unknown:
-        raise SandboxError(f"gallery: unknown garment(s) {', '.join(unknown)}; the library has "
-                           f"{', '.join(library)}")  # fmt: skip
-    if not (isinstance(jobs, int) and jobs >= 1):
-        raise SandboxError(f"gallery: jobs must be a whole number >= 1, got {jobs!r}")
-    if integrator not in INTEGRATORS:
-        raise SandboxError(f"gallery: integrator must be one of {', '.join(INTEGRATORS)}, got "
-                           f"{integrator!r}")  # fmt: skip
-    implicit = integrator == "implicit_euler"
+    chosen = _chosen_garments(names, jobs, integrator)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    mannequin = None  # built for the first garment draped in this process
     edge = edge_length_m
     if edge is None:
         edge = QUICK_EDGE_M if quick else default_edge_m(integrator)
@@ -109,6 +94,8 @@ def gallery(
                                     integrator=integrator)  # fmt: skip
         draped = read_back([n for n in todo if n not in failed])
     rows, tiles = [], []
+    here = _InProcess(out, size=size, edge_length_m=edge, fabric=fabric, config=config,
+                      meshes=meshes)  # fmt: skip
     for i, name in enumerate(chosen):
         if name in failed:
             rows.append({"garment": name, "error": failed[name], "wall_time_s": 0.0})
@@ -126,44 +113,84 @@ def gallery(
             continue
         if progress:
             print(f"[{i + 1}/{len(chosen)}] {name} ...", flush=True)
+        row, tile = here.drape(name)
+        rows.append(row)
+        tiles.append((name, tile))
+        if progress and "error" not in row:
+            print(f"    {row['vertices']} vertices, {row['wall_time_s']:.0f} s, converged "
+                  f"{row['converged']}, seam gap {_mm(row['seam_gap_max_m'])} mm, inside "
+                  f"{row['vertices_inside_body']}, pairs {row['intersecting_triangle_pairs']}",
+                  flush=True)  # fmt: skip
+    header = _header(size=size, edge_m=edge, quick=quick, integrator=integrator, jobs=jobs,
+                     read_back=len(earlier), total=len(chosen))  # fmt: skip
+    return [
+        write_sheet(out / "gallery.png", tiles),
+        write_table(out / "gallery.md", rows, header),
+        _write_json(out / "gallery.json", rows, header),
+    ]
+
+
+def _chosen_garments(names, jobs, integrator) -> list[str]:
+    """The library garments to drape (all by default), after checking the arguments."""
+    from sandbox.garment import garment_names
+    from sandbox.scene.spec import INTEGRATORS
+
+    library = garment_names()
+    chosen = list(names) if names else library
+    unknown = [n for n in chosen if n not in library]
+    if unknown:
+        raise SandboxError(f"gallery: unknown garment(s) {', '.join(unknown)}; the library has "
+                           f"{', '.join(library)}")  # fmt: skip
+    if not (isinstance(jobs, int) and jobs >= 1):
+        raise SandboxError(f"gallery: jobs must be a whole number >= 1, got {jobs!r}")
+    if integrator not in INTEGRATORS:
+        raise SandboxError(f"gallery: integrator must be one of {', '.join(INTEGRATORS)}, got "
+                           f"{integrator!r}")  # fmt: skip
+    return chosen
+
+
+class _InProcess:
+    """Drapes garments one after the other in this process, on one mannequin (built for the
+    first); a garment that fails gets a row saying why."""
+
+    def __init__(self, out: Path, *, size, edge_length_m, fabric, config, meshes):
+        self.out, self.size, self.edge = out, size, edge_length_m
+        self.fabric, self.config, self.meshes = fabric, config, meshes
+        self.mannequin = None
+
+    def drape(self, name: str) -> tuple[dict, np.ndarray | None]:
+        """(table row, front tile or None) of one garment."""
+        from sandbox.garment import drape, make_mannequin
+
         t0 = time.perf_counter()
         runtime.recycle()  # the garments before are written out: free Taichi's field trees
-        mannequin = mannequin or make_mannequin(size)
+        self.mannequin = self.mannequin or make_mannequin(self.size)
         try:
-            res = drape(name, mannequin=mannequin, out_dir=out / name, edge_length_m=edge,
-                        fabric=fabric, config=config, progress=False,
-                        meshes=meshes)  # fmt: skip
+            res = drape(name, mannequin=self.mannequin, out_dir=self.out / name,
+                        edge_length_m=self.edge, fabric=self.fabric, config=self.config,
+                        progress=False, meshes=self.meshes)  # fmt: skip
         except SandboxError as exc:  # includes SimulationDiverged
             log.warning("%s: %s", name, exc)
-            rows.append({"garment": name, "error": str(exc),
-                         "wall_time_s": time.perf_counter() - t0})  # fmt: skip
-            tiles.append((name, None))
-            continue
-        m = res.metrics
-        rows.append(_row(name, m))
-        tiles.append((name, _front_tile(res)))
-        if progress:
-            r = rows[-1]
-            print(f"    {r['vertices']} vertices, {r['wall_time_s']:.0f} s, converged "
-                  f"{r['converged']}, seam gap {_mm(r['seam_gap_max_m'])} mm, inside "
-                  f"{r['vertices_inside_body']}, pairs {r['intersecting_triangle_pairs']}",
-                  flush=True)  # fmt: skip
+            return {"garment": name, "error": str(exc),
+                    "wall_time_s": time.perf_counter() - t0}, None  # fmt: skip
+        return _row(name, res.metrics), _front_tile(res)
+
+
+def _header(*, size, edge_m, quick, integrator, jobs, read_back, total) -> str:
+    """The table's first line: what was draped and the command that reproduces it."""
+    implicit = integrator == "implicit_euler"
     fabrics = f", every garment in {QUICK_FABRIC}" if quick else ", each garment's fabric"
-    header = f"Size {size} mannequin, {'quick: ' if quick else ''}{edge * 100:g} cm mesh edges"
+    header = f"Size {size} mannequin, {'quick: ' if quick else ''}{edge_m * 100:g} cm mesh edges"
     if implicit:
         header += ", implicit Euler (backward Euler at 1/60 s steps)"
     header += fabrics + ". Reproduce: `python -m sandbox gallery" + (" --quick" if quick else "")
     header += " --integrator implicit_euler" if implicit else ""
     header += (f" --size {size}" if size != 12 else "") + (f" --jobs {jobs}" if jobs > 1 else "")
     header += "`"
-    if earlier:
-        header += (f" ({len(earlier)} of {len(chosen)} garments read back from earlier drapes with "
+    if read_back:
+        header += (f" ({read_back} of {total} garments read back from earlier drapes with "
                    "the same settings, `--resume`; their wall times are those runs')")  # fmt: skip
-    return [
-        write_sheet(out / "gallery.png", tiles),
-        write_table(out / "gallery.md", rows, header),
-        _write_json(out / "gallery.json", rows, header),
-    ]
+    return header
 
 
 def drape_in_processes(names, out_dir, *, size: int, edge_length_m: float, jobs: int,

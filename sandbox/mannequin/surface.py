@@ -142,17 +142,31 @@ class BodyTemplate:
     """
 
     def __init__(self, base: BodyShape, n_columns: int = 64, samples: tuple[BodyShape, ...] = ()):
-        self.cols = cols = body.Columns(n_columns)
-        n = cols.n
-        rings = body.torso_key_rings(base, cols)
+        self.cols = body.Columns(n_columns)
+        self._nv = 0  # vertices allocated so far (:meth:`_block`)
+        rings = body.torso_key_rings(base, self.cols)
         keys_t = np.stack([rings[k] for k in body.TORSO_RINGS])
+        self._plan_torso_and_bridges(base, rings, keys_t)
+        self._plan_loops()
+        self._plan_limbs(base, rings, keys_t)
+        self._build_faces(base, samples)
+        self._vtmp = None
+
+    def _block(self, count: int) -> np.ndarray:
+        """The indices of ``count`` new vertices."""
+        idx = np.arange(self._nv, self._nv + count)
+        self._nv += count
+        return idx
+
+    def _plan_torso_and_bridges(self, base: BodyShape, rings: dict, keys_t: np.ndarray):
+        """Row counts of the torso, the crotch bridge and the shoulder bridges."""
+        cols = self.cols
         spacing_t = _ring_spacing(keys_t)
         self.target = float(spacing_t.mean())
         counts, t = _counts(keys_t, TORSO_STRETCH)
         self.torso_counts, self.torso_t = counts, t
         self.h_torso = hermite_matrix(t, counts)
         self.torso_key_rows = key_row_indices(counts)
-        rt = self.torso_key_rows[-1] + 1
 
         # crotch bridge (odd count so the crotch point is a vertex)
         depth = abs(keys_t[0, 0, 2] - keys_t[0, cols.back, 2]) + body.CROTCH_DIP
@@ -166,8 +180,7 @@ class BodyTemplate:
         self.bridge_pieces = self.bridge_pieces.astype(int)
         tb = np.concatenate([[0.0], np.cumsum(piece)])
         self.h_bridge = hermite_matrix(tb, self.bridge_pieces)
-        ka = int(self.bridge_pieces.sum()) - 1
-        self.ka = ka
+        self.ka = int(self.bridge_pieces.sum()) - 1
         cum = np.cumsum(self.bridge_pieces)
         self.bridge_front_crease, self.bridge_shoulder, self.bridge_back_crease = (
             int(cum[0]) - 1,
@@ -175,19 +188,16 @@ class BodyTemplate:
             int(cum[2]) - 1,
         )  # indices into the bridge interior
 
-        # --- vertex blocks ------------------------------------------------------------
-        nv = 0
-
-        def block(count):
-            nonlocal nv
-            idx = np.arange(nv, nv + count)
-            nv += count
-            return idx
-
-        self.torso_idx = block(rt * n).reshape(rt, n)
-        self.crotch_idx = block(self.kc)
-        self.bridge_l_idx = block(ka)
-        self.bridge_r_idx = block(ka)
+    def _plan_loops(self):
+        """Vertex blocks of the torso and bridges, and the loops where the yoke, the arms
+        and the legs join them."""
+        cols, ka = self.cols, self.ka
+        n = cols.n
+        rt = self.torso_key_rows[-1] + 1
+        self.torso_idx = self._block(rt * n).reshape(rt, n)
+        self.crotch_idx = self._block(self.kc)
+        self.bridge_l_idx = self._block(ka)
+        self.bridge_r_idx = self._block(ka)
 
         h = cols.armhole_half
         sl, sr = cols.side_left, cols.side_right
@@ -238,7 +248,10 @@ class BodyTemplate:
             [bottom[cols.mirror(np.arange(0, cols.back + 1))], self.crotch_idx]
         )
 
-        # --- base evaluation of the loops to fix counts and angles ----------------------
+    def _plan_limbs(self, base: BodyShape, rings: dict, keys_t: np.ndarray):
+        """Evaluate the loops on the base shape to fix the yoke's, arms' and legs' row
+        counts and angles, then allocate their grids."""
+        nv = self._nv
         self.n_vertices_core = nv
         self._vtmp = np.zeros((nv, 3))
         torso_rows = self._torso_rows(keys_t)
@@ -269,15 +282,20 @@ class BodyTemplate:
         ry = self.h_yoke.shape[1]
         ra = self.h_arm.shape[1]
         rl = self.h_leg.shape[1]
+        my = len(self.yoke_loop)
+        block = self._block
         self.yoke_grid = np.vstack([self.yoke_loop, block((ry - 1) * my).reshape(ry - 1, my)])
         ma, ml = len(self.arm_l_loop), len(self.leg_l_loop)
         self.arm_l_grid = np.vstack([self.arm_l_loop, block((ra - 1) * ma).reshape(ra - 1, ma)])
         self.arm_r_grid = np.vstack([self.arm_r_loop, block((ra - 1) * ma).reshape(ra - 1, ma)])
         self.leg_l_grid = np.vstack([self.leg_l_loop, block((rl - 1) * ml).reshape(rl - 1, ml)])
         self.leg_r_grid = np.vstack([self.leg_r_loop, block((rl - 1) * ml).reshape(rl - 1, ml)])
-        self.n_vertices_core = nv
+        self.n_vertices_core = self._nv
 
-        # base positions (without caps) for diagonals and caps
+    def _build_faces(self, base: BodyShape, samples: tuple[BodyShape, ...]):
+        """Triangles of every grid (quad diagonals chosen to suit the base and the samples)
+        and the caps closing the neck, arm and leg openings."""
+        nv = self._nv
         pos = np.zeros((nv, 3))
         self._vtmp = pos
         self._evaluate_core(base)
@@ -308,16 +326,14 @@ class BodyTemplate:
             ring = pos[ring_idx]
             spacing = float(_ring_spacing(ring[None])[0])
             w, tris = _cap(ring, spacing)
-            interior = block(len(w))
+            interior = self._block(len(w))
             full = np.concatenate([full, w @ ring])
             lookup = np.concatenate([ring_idx, interior])
             ref = pos[grid[-2]].mean(axis=0)
             faces.append(_outward(lookup[tris], full, ref[None, :]))
             self.caps.append((ring_idx, interior, w))
-        self.n_vertices = nv
-        faces = np.concatenate(faces).astype(np.int64)
-        self.faces = faces
-        self._vtmp = None
+        self.n_vertices = self._nv
+        self.faces = np.concatenate(faces).astype(np.int64)
 
     # --- evaluation pieces --------------------------------------------------------------
     def _torso_rows(self, keys_t: np.ndarray) -> np.ndarray:

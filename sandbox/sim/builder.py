@@ -134,30 +134,7 @@ class ModelBuilder:
         for pc in self._pieces:
             uv, tris, mat = pc["uv"], pc["tris"], pc["material"]
             n = len(uv)
-            g = pc["grain"]
-            warp = np.array([math.cos(g), math.sin(g)])
-            weft = np.array([-math.sin(g), math.cos(g)])
-            rest = np.stack([uv @ warp, uv @ weft], axis=1)  # (u, v) material coordinates
-            d1 = rest[tris[:, 1]] - rest[tris[:, 0]]
-            d2 = rest[tris[:, 2]] - rest[tris[:, 0]]
-            det = d1[:, 0] * d2[:, 1] - d2[:, 0] * d1[:, 1]
-            bad = np.nonzero(np.abs(det) < 2 * MIN_REST_AREA_M2)[0]
-            if len(bad):
-                raise SandboxError(
-                    f"{pc['where']}: triangle {int(bad[0])} has zero rest area "
-                    f"({len(bad)} degenerate triangle(s))"
-                )
-            if np.any(det < 0):
-                raise SandboxError(
-                    f"{pc['where']}: triangle {int(np.nonzero(det < 0)[0][0])} is clockwise "
-                    "in the pattern plane; all triangles must be counter-clockwise"
-                )
-            dm = np.stack([np.stack([d1[:, 0], d2[:, 0]], 1), np.stack([d1[:, 1], d2[:, 1]], 1)], 1)
-            area = 0.5 * det
-            mass = np.zeros(n)
-            np.add.at(mass, tris.ravel(), np.repeat(mat.density_kg_m2 * area / 3.0, 3))
-            if np.any(mass <= 0):
-                raise SandboxError(f"{pc['where']}: a vertex belongs to no triangle")
+            rest, dm, area, mass = _rest_shape(pc)
             world = pc["pos"] if pc["pos"] is not None else uv @ pc["rot"][:, :2].T + pc["t"]
             xs.append(world)
             vs.append(np.tile(pc["vel"], (n, 1)))
@@ -254,3 +231,36 @@ class ModelBuilder:
             stiff.append(np.full(len(p), float(k)))
             self.seam_lines.append(lines)
         return np.concatenate(pairs), np.concatenate(rest), np.concatenate(stiff)
+
+
+def _rest_shape(pc: dict):
+    """One piece's rest shape: material coordinates (n, 2) [m] along warp and weft, the
+    rest edge matrices D_m (m, 2, 2), the triangle areas (m,) [m²] and the lumped vertex
+    masses (n,) [kg]; SandboxError for a degenerate or clockwise triangle or a vertex that
+    belongs to no triangle."""
+    uv, tris, mat = pc["uv"], pc["tris"], pc["material"]
+    g = pc["grain"]
+    warp = np.array([math.cos(g), math.sin(g)])
+    weft = np.array([-math.sin(g), math.cos(g)])
+    rest = np.stack([uv @ warp, uv @ weft], axis=1)  # (u, v) material coordinates
+    d1 = rest[tris[:, 1]] - rest[tris[:, 0]]
+    d2 = rest[tris[:, 2]] - rest[tris[:, 0]]
+    det = d1[:, 0] * d2[:, 1] - d2[:, 0] * d1[:, 1]
+    bad = np.nonzero(np.abs(det) < 2 * MIN_REST_AREA_M2)[0]
+    if len(bad):
+        raise SandboxError(
+            f"{pc['where']}: triangle {int(bad[0])} has zero rest area "
+            f"({len(bad)} degenerate triangle(s))"
+        )
+    if np.any(det < 0):
+        raise SandboxError(
+            f"{pc['where']}: triangle {int(np.nonzero(det < 0)[0][0])} is clockwise "
+            "in the pattern plane; all triangles must be counter-clockwise"
+        )
+    dm = np.stack([np.stack([d1[:, 0], d2[:, 0]], 1), np.stack([d1[:, 1], d2[:, 1]], 1)], 1)
+    area = 0.5 * det
+    mass = np.zeros(len(uv))
+    np.add.at(mass, tris.ravel(), np.repeat(mat.density_kg_m2 * area / 3.0, 3))
+    if np.any(mass <= 0):
+        raise SandboxError(f"{pc['where']}: a vertex belongs to no triangle")
+    return rest, dm, area, mass
