@@ -8,6 +8,7 @@ traceback, and exit with status 2.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import logging
 import sys
 from importlib import resources
@@ -169,8 +170,15 @@ def _add_drape_parsers(sub) -> None:
     p.add_argument("--fast-sew", action="store_true",
                    help="no self-collision while sewing: about 3x faster, but panels may "
                    "pass through each other and keep those crossings")  # fmt: skip
-    p.add_argument("--integrator", choices=INTEGRATORS,
-                   default="symplectic_euler",
+    p.add_argument(
+        "--config",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="a TOML file of drape settings (DrapeConfig's fields, with [sewing], "
+        "[repair] and [acceptance] tables; docs/drape.md); the flags below win",
+    )
+    p.add_argument("--integrator", choices=INTEGRATORS, default=None,
                    help="symplectic_euler (the paper's Eq. 2, default) or implicit_euler "
                    "(backward Euler at 1/60 s steps, docs/implicit.md; it meshes at 3 cm unless "
                    "--edge-cm says otherwise: finer, Newton does not converge and a drape "
@@ -215,15 +223,33 @@ def _add_drape_parsers(sub) -> None:
     _add_runtime_flags(p)
 
 
+def drape_config_from_args(args, base=None):
+    """The drape's :class:`~sandbox.garment.DrapeConfig`: ``base`` (a ``--config`` file's, or
+    the defaults) with the command line's flags applied on top."""
+    from sandbox.garment import DrapeConfig
+
+    config = base or DrapeConfig()
+    changes = {}
+    if args.integrator is not None:
+        changes["integrator"] = args.integrator
+    if args.no_self_collision:
+        changes["self_collision"] = False
+    if args.fast_sew or args.no_self_collision:
+        changes["sewing"] = dataclasses.replace(config.sewing, self_collision=False)
+    if args.time_limit is not None:
+        if not args.time_limit > 0:
+            raise SandboxError(f"--time-limit {args.time_limit}: must be positive")
+        changes["time_limit_s"] = args.time_limit
+    if args.strain_damping is not None:
+        if not args.strain_damping >= 0:
+            raise SandboxError(f"--strain-damping {args.strain_damping}: must be >= 0 s")
+        changes["strain_damping_s"] = args.strain_damping
+    return dataclasses.replace(config, **changes)
+
+
 def cmd_drape(args) -> int:
-    from sandbox.garment import (
-        DrapeConfig,
-        SewingConfig,
-        check_garment,
-        default_edge_m,
-        drape,
-        garment_names,
-    )
+    from sandbox.garment import check_garment, default_edge_m, drape, garment_names
+    from sandbox.garment.config import load_drape_config
     from sandbox.mannequin.measurements import KEYS
 
     if args.list:  # before Taichi starts: its banner would mix into the list
@@ -237,25 +263,12 @@ def cmd_drape(args) -> int:
     check_garment(args.garment)
     if args.out is None:
         raise SandboxError("drape: --out DIR is required")
+    config = drape_config_from_args(args, load_drape_config(args.config) if args.config else None)
     if args.edge_cm is None:  # implicit drapes converge only on coarser meshes
-        args.edge_cm = default_edge_m(args.integrator) * 100.0
+        args.edge_cm = default_edge_m(config.integrator) * 100.0
     if not args.edge_cm > 0:
         raise SandboxError(f"--edge-cm {args.edge_cm}: must be a positive length in cm")
     measurements = {k: getattr(args, k) for k in KEYS if getattr(args, k) is not None}
-    options = {
-        "self_collision": not args.no_self_collision,
-        "sewing": SewingConfig(self_collision=not (args.fast_sew or args.no_self_collision)),
-        "integrator": args.integrator,
-    }
-    if args.time_limit is not None:
-        if not args.time_limit > 0:
-            raise SandboxError(f"--time-limit {args.time_limit}: must be positive")
-        options["time_limit_s"] = args.time_limit
-    if args.strain_damping is not None:
-        if not args.strain_damping >= 0:
-            raise SandboxError(f"--strain-damping {args.strain_damping}: must be >= 0 s")
-        options["strain_damping_s"] = args.strain_damping
-    config = DrapeConfig(**options)
     runtime.init(args.arch, float64=args.float64)
     res = drape(args.garment, size=args.size, measurements=measurements or None,
                 fabric=args.fabric, out_dir=args.out, edge_length_m=args.edge_cm / 100.0,

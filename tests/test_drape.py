@@ -227,3 +227,48 @@ def test_implicit_sewing_ends_each_frame_at_rest_so_the_circle_skirt_closes(mann
     # gores closed (22.8 cm with the momentum kept)
     hem = x0[:, 1] < x0[:, 1].min() + 0.01
     assert x[hem, 1].max() < x0[hem, 1].max() + 0.08
+
+
+def test_drape_settings_from_a_toml_file(tmp_path):
+    """A drape's settings file sets DrapeConfig's fields and its sub-tables; a bad key or
+    value is refused with one line naming the file and the setting."""
+    from sandbox.errors import SandboxError
+    from sandbox.garment.config import load_drape_config
+
+    path = tmp_path / "drape.toml"
+    path.write_text('time_limit_s = 4.0\nintegrator = "implicit_euler"\n'
+                    "[sewing]\nspeed_limit_m_s = 2.0\nself_collision = false\n")  # fmt: skip
+    config = load_drape_config(path)
+    assert config.time_limit_s == 4.0 and config.implicit
+    assert config.sewing.speed_limit_m_s == 2.0 and not config.sewing.self_collision
+    assert config.sewing.gap_m == DrapeConfig().sewing.gap_m  # the rest keep their defaults
+    for text, words in (
+        ("time_limt_s = 4.0", ["time_limt_s", "unknown"]),
+        ("[sewing]\ngap = 1.0", ["sewing", "gap"]),
+        ("time_limit_s = -1.0", ["time_limit_s", "positive"]),
+        ("self_collision = 1", ["self_collision"]),
+        ('integrator = "rk4"', ["rk4"]),
+        ("time_limit_s = ", ["not a TOML file"]),
+    ):
+        path.write_text(text)
+        with pytest.raises(SandboxError) as err:
+            load_drape_config(path)
+        message = str(err.value)
+        assert str(path) in message and "\n" not in message
+        assert all(w in message for w in words), message
+    with pytest.raises(SandboxError, match="no such drape settings file"):
+        load_drape_config(tmp_path / "missing.toml")
+
+
+def test_cli_flags_win_over_the_settings_file(tmp_path):
+    import argparse
+
+    from sandbox.cli import drape_config_from_args
+    from sandbox.garment.config import drape_config_from_dict
+
+    base = drape_config_from_dict({"time_limit_s": 3.0, "integrator": "implicit_euler"})
+    flags = argparse.Namespace(integrator=None, no_self_collision=False, fast_sew=True,
+                               time_limit=5.0, strain_damping=None)  # fmt: skip
+    config = drape_config_from_args(flags, base)
+    assert config.time_limit_s == 5.0 and config.implicit and not config.sewing.self_collision
+    assert config.self_collision  # --fast-sew: only the sewing runs without self-collision

@@ -8,6 +8,7 @@ Frozen, so ``dataclasses.replace(config, time_limit_s=4.0)`` makes a variant.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field, fields
 
@@ -232,3 +233,56 @@ def implicit_mesh_warning(integrator: str, edge_length_m: float | None) -> str |
             f"{IMPLICIT_GARMENT_EDGE_M * 100:g} cm (measured at 1 cm: 15-30 s per 1/60 s "
             f"step, so hours per drape; docs/implicit.md). Use symplectic_euler at this mesh, "
             f"or --edge-cm {IMPLICIT_GARMENT_EDGE_M * 100:g} with implicit_euler.")  # fmt: skip
+
+
+_SECTIONS = {"sewing": SewingConfig, "repair": RepairConfig, "acceptance": AcceptanceConfig}
+
+
+def _from_table(cls, table, where: str, base=None):
+    """An instance of the config dataclass ``cls`` from a TOML/JSON table; unknown keys and
+    values of the wrong type are refused with a message naming ``where`` and the key."""
+    if not isinstance(table, dict):
+        raise SandboxError(f"{where}: expected a table of settings, got {type(table).__name__}")
+    names = {f.name: f for f in fields(cls)}
+    unknown = sorted(set(table) - set(names))
+    if unknown:
+        raise SandboxError(f"{where}: unknown setting(s) {', '.join(unknown)}; known: "
+                           f"{', '.join(sorted(names))}")  # fmt: skip
+    values = {}
+    for key, value in table.items():
+        if key in _SECTIONS and cls is DrapeConfig:
+            value = _from_table(_SECTIONS[key], value, f"{where}.{key}", getattr(base, key, None))
+        elif isinstance(value, bool) != isinstance(getattr(cls(), key), bool) or not isinstance(
+            value, bool | int | float | str | type(None)
+        ):
+            raise SandboxError(f"{where}.{key}: {value!r} is not a valid value for this setting")
+        values[key] = value
+    try:
+        return dataclasses.replace(base, **values) if base is not None else cls(**values)
+    except SandboxError as exc:
+        raise SandboxError(f"{where}: {exc}") from None
+    except TypeError as exc:
+        raise SandboxError(f"{where}: {exc}") from None
+
+
+def drape_config_from_dict(table: dict, where: str = "drape settings",
+                           base: DrapeConfig | None = None) -> DrapeConfig:  # fmt: skip
+    """A :class:`DrapeConfig` from a table of its field names (sub-tables ``sewing``,
+    ``repair``, ``acceptance``); fields not given keep ``base``'s values (default: the
+    defaults)."""
+    return _from_table(DrapeConfig, table, where, base or DrapeConfig())
+
+
+def load_drape_config(path) -> DrapeConfig:
+    """A :class:`DrapeConfig` from a TOML file of its fields (see docs/drape.md)."""
+    import tomllib
+    from pathlib import Path
+
+    p = Path(path)
+    if not p.is_file():
+        raise SandboxError(f"{p}: no such drape settings file")
+    try:
+        table = tomllib.loads(p.read_text())
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise SandboxError(f"{p}: not a TOML file ({exc})") from None
+    return drape_config_from_dict(table, str(p))
