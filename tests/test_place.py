@@ -146,6 +146,10 @@ def test_bad_placement_input():
                           "landmark": "waist_front"}, pb)  # fmt: skip
     with pytest.raises(SandboxError, match="shape"):
         place_panel(np.zeros((3, 3)), {"translation": [0, 0, 0]}, pb)
+    with pytest.raises(SandboxError, match="push_iterations"):  # the body's own setting
+        place_panel(pts, {"body": "torso", "side": "front", "anchor": [0, 0],
+                          "landmark": "waist_front"}, pb,
+                    config=PlacementConfig(push_iterations=2))  # fmt: skip
 
 
 def test_wrapped_panels_start_less_stretched_and_no_more_crossed():
