@@ -70,7 +70,7 @@ def test_the_bust_slider_resizes_the_body_and_the_collider(session):
 
 
 def test_the_body_drawn_follows_the_slider_with_outward_unit_normals(session):
-    from sandbox.render.offscreen import vertex_normals
+    from sandbox.render.view import vertex_normals
 
     before = session.mannequin
     body = session.resize(hip_girth=before.measure()["hip_girth"] + 6.0)

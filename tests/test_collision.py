@@ -189,7 +189,7 @@ def test_a_coarse_sheet_over_a_small_ball_hides_it_with_the_face_pass(faces):
     """A 4 cm mesh over an r = 6 cm ball: the triangles span the curvature. Without the face
     pass the ball shows through them (hundreds of its vertices lie outside the cloth);
     with it none does, and the sheet still rests on the ball (friction)."""
-    from sandbox.collision.metrics import body_vertices_through_cloth
+    from sandbox.collision.body_probe import body_vertices_through_cloth
 
     sc = scene(
         {"size_m": [0.24, 0.24], "edge_length_m": 0.04, "origin_m": [-0.12, 0.07, 0.12],

@@ -6,15 +6,13 @@ import numpy as np
 import pytest
 import trimesh
 
+from sandbox.collision.body_probe import body_inside_check, penetration_metrics
+from sandbox.collision.mesh_checks import edge_report
 from sandbox.collision.metrics import (
-    body_inside_check,
-    contact_metrics,
     count_intersecting_pairs,
     count_intersections_between,
-    edge_report,
     intersecting_pairs,
     intersecting_pairs_between,
-    penetration_metrics,
     seam_joined_pairs,
 )
 from sandbox.errors import SandboxError
@@ -345,14 +343,40 @@ def test_inside_out_overlapping_and_hollow_bodies():
     assert shell.inside(points_at(c, [0.05, 0.2, 0.4])).tolist() == [False, True, False]
 
 
-def test_contact_metrics_keys():
-    v, f, c, _ = sphere(subdivisions=2)
-    cv, ct = sheet(4, 4, size=(0.2, 0.2))
-    cv = cv + c - [0.1, 0.1, 0.25]  # partly inside the sphere
-    out = contact_metrics(cv, ct, body_inside_check(v, f))
+def test_contact_metrics_of_a_scene():
+    """The contact keys of metrics.json (:func:`sandbox.scene.run.contact_metrics`) for a
+    20 cm sheet of a built scene moved part-way into a 20 cm sphere collider: the deepest
+    vertex's depth matches the analytic sphere to the tessellation's sag (< 1 mm), every
+    vertex more than 1 mm inside counts, the flat sheet has no crossing pairs and folded
+    onto itself it has; without a closed collider the body keys are None."""
+    from sandbox.scene.build import build_scene
+    from sandbox.scene.run import contact_metrics
+    from sandbox.scene.spec import scene_from_dict
+
+    def scene(colliders):
+        cloth = {"name": "sheet", "edge_length_m": 0.02, "material": "jersey",
+                 "size_m": [0.2, 0.2], "origin_m": [-0.1, 0.0, 0.1],
+                 "rotation_deg": [-90, 0, 0]}  # fmt: skip
+        data = {"scene": {"name": "contact_metrics"}, "stop": {"time_limit_s": 0.1},
+                "cloth": [cloth], "collider": colliders}  # fmt: skip
+        return build_scene(scene_from_dict(data, source="contact_metrics.toml"))
+
+    ball = {"name": "ball", "shape": "sphere", "center_m": [0, 0, 0], "radius_m": 0.2}
+    sc = scene([ball])
+    x = sc.state.positions() + [0.0, 0.15, 0.0]  # the sheet in y = 0.15
+    r = np.linalg.norm(x, axis=1)
+    out = contact_metrics(sc.model, x)
     assert set(out) == {"penetration_max_m", "vertices_inside_body", "intersecting_triangle_pairs"}
-    assert out["vertices_inside_body"] > 0 and out["intersecting_triangle_pairs"] == 0
-    assert contact_metrics(cv, ct) == {"intersecting_triangle_pairs": 0}
+    assert out["penetration_max_m"] == pytest.approx(0.2 - r.min(), abs=1e-3)
+    assert np.sum(r < 0.199) <= out["vertices_inside_body"] <= np.sum(r < 0.2)
+    assert out["intersecting_triangle_pairs"] == 0
+    folded = x.copy()
+    folded[x[:, 0] > 0, 0] *= -1  # the right half laid onto the left, in the same plane
+    assert contact_metrics(sc.model, folded)["intersecting_triangle_pairs"] > 100
+    free = scene([])
+    assert contact_metrics(free.model, free.state.positions()) == {
+        "penetration_max_m": None, "vertices_inside_body": None, "intersecting_triangle_pairs": 0
+    }  # fmt: skip
 
 
 def test_bad_body_input():

@@ -287,3 +287,22 @@ def test_cli_lists_and_writes(tmp_path, capsys):
     assert data["meta"]["girths_cm"]["waist"]["garment"] == 81.0
     assert cli_main(["a-line-skirt", "--bust", "300", "--out", str(out)]) == 2
     assert "outside the supported" in capsys.readouterr().err
+
+
+def test_draft_rules_neck_ease_widens_the_neck_only():
+    """DraftRules: 1 cm more neck ease moves the side neck points (and the shoulder points
+    with them) 1 cm out on each side of the T-shirt front; the hem and the side seams stay."""
+    from sandbox.drafting.blocks import BLOCKS
+    from sandbox.drafting.body import body_dims
+    from sandbox.drafting.torso import DraftRules
+
+    g = load_garment("t-shirt")
+    b = body_dims(size_entry(12).measurements)
+    base = np.array(BLOCKS[g.block](g.params, b).panels["front"]["vertices"])
+    wider = BLOCKS[g.block](g.params, b, DraftRules(neck_ease_cm=1.5)).panels["front"]
+    shift = np.array(wider["vertices"]) - base
+    names = [e["name"] for e in wider["edges"]]
+    neck = [names.index("shoulder_left"), names.index("neckline_left")]
+    assert np.allclose(shift[:, 1], 0.0, atol=1e-9)
+    assert np.allclose(shift[neck, 0], 1.0, atol=1e-9)  # and the mirror images 1 cm to -x:
+    assert np.sum(np.abs(shift[:, 0]) > 1e-9) == 4 and np.allclose(np.sort(shift[:, 0])[:2], -1.0)

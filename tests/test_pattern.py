@@ -16,12 +16,8 @@ from sandbox.pattern.garmentcode import garmentcode_to_dict, load_garmentcode, m
 from sandbox.pattern.mesh2d import min_angle_deg
 from sandbox.pattern.panel_mesh import main as check_main
 from sandbox.pattern.panel_mesh import mesh_panel, mesh_pattern, pattern_seam_sides
-from sandbox.pattern.spec import (
-    load_pattern,
-    pattern_schema,
-    rotation_matrix_xyz_deg,
-    save_pattern,
-)
+from sandbox.pattern.reader import pattern_schema
+from sandbox.pattern.spec import load_pattern, rotation_matrix_xyz_deg, save_pattern
 
 DATA = Path(__file__).parent / "data"
 SKIRT = DATA / "pattern_skirt.json"

@@ -1,15 +1,19 @@
-"""Placement of pattern panels around the mannequin (sandbox/pattern/place.py)."""
+"""Placement of pattern panels around the mannequin (sandbox/pattern/placement/)."""
 
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from sandbox.collision.metrics import body_inside_check, count_intersections_between
+from sandbox.collision.body_probe import body_inside_check
+from sandbox.collision.metrics import count_intersections_between
 from sandbox.errors import SandboxError
 from sandbox.mannequin import build_mannequin
 from sandbox.pattern.panel_mesh import mesh_pattern
-from sandbox.pattern.place import PlacementBody, place_panel, place_pattern, start_stretches
+from sandbox.pattern.placement.body import PlacementBody
+from sandbox.pattern.placement.config import PlacementConfig
+from sandbox.pattern.placement.place import place_panel, place_pattern
+from sandbox.pattern.placement.repair import crossings, start_stretches
 from sandbox.pattern.spec import load_pattern
 
 DATA = Path(__file__).parent / "data"
@@ -142,9 +146,13 @@ def test_bad_placement_input():
                           "landmark": "waist_front"}, pb)  # fmt: skip
     with pytest.raises(SandboxError, match="shape"):
         place_panel(np.zeros((3, 3)), {"translation": [0, 0, 0]}, pb)
+    with pytest.raises(SandboxError, match="push_iterations"):  # the body's own setting
+        place_panel(pts, {"body": "torso", "side": "front", "anchor": [0, 0],
+                          "landmark": "waist_front"}, pb,
+                    config=PlacementConfig(push_iterations=2))  # fmt: skip
 
 
-def test_wrapped_panels_start_less_stretched_and_no_more_crossed(monkeypatch):
+def test_wrapped_panels_start_less_stretched_and_no_more_crossed():
     """The relaxation after the wrap. The T-shirt wrapped row by row round the arms and the
     torso starts up to 1.9 x stretched next to the armpit (2.4 x with the arms 1.2 cm from
     the torso), with 16 % of its triangles off by more than 10 %. Relaxed, where that does
@@ -152,7 +160,6 @@ def test_wrapped_panels_start_less_stretched_and_no_more_crossed(monkeypatch):
     by more than 30 % (one sleeve triangle at the armpit may get stretched more; the
     largest stays below 2.2 x), the clearance is kept and the garment does not start with
     more crossing triangle pairs."""
-    import sandbox.pattern.place as place
     from sandbox.garment import resolve_pattern
 
     m = build_mannequin(size=12)
@@ -162,8 +169,7 @@ def test_wrapped_panels_start_less_stretched_and_no_more_crossed(monkeypatch):
     relaxed = place_pattern(pattern, meshes, pb)
     s = start_stretches(meshes, relaxed)
     _check(pattern, (m, pb, body_inside_check(m.vertices, m.triangles)))
-    monkeypatch.setattr(place, "RELAX_ROUNDS", 0)  # the wrap alone
-    raw = place_pattern(pattern, meshes, pb)
+    raw = place_pattern(pattern, meshes, pb, PlacementConfig(relax_rounds=0))  # the wrap alone
     r = start_stretches(meshes, raw)
 
     def strained(x):
@@ -172,14 +178,13 @@ def test_wrapped_panels_start_less_stretched_and_no_more_crossed(monkeypatch):
     assert r[:, 0].max() > 1.5 and strained(r) > 0.15
     assert strained(s) < 0.12 and s[:, 0].max() < 2.2
     assert np.sum(s[:, 0] > 1.3) < 0.5 * np.sum(r[:, 0] > 1.3)
-    assert place._crossings(relaxed, meshes) <= place._crossings(raw, meshes)
+    assert crossings(relaxed, meshes) <= crossings(raw, meshes)
 
 
-def test_sleeved_top_starts_without_crossings_at_a_fine_mesh(monkeypatch):
+def test_sleeved_top_starts_without_crossings_at_a_fine_mesh():
     """At 1 cm the push-out folds the T-shirt's sleeve caps through themselves in the armpit
     (74 crossing pairs before :func:`untangle`); placed, the garment starts with none,
     still at its clearance from the body."""
-    import sandbox.pattern.place as place
     from sandbox.garment import resolve_pattern
 
     m = build_mannequin(size=12)
@@ -187,10 +192,10 @@ def test_sleeved_top_starts_without_crossings_at_a_fine_mesh(monkeypatch):
     pattern = resolve_pattern("t-shirt", m)
     meshes = mesh_pattern(pattern, 0.01)
     placed = place_pattern(pattern, meshes, pb)
-    assert place._crossings(placed, meshes) == 0
+    assert crossings(placed, meshes) == 0
     probe = body_inside_check(m.vertices, m.triangles)
     for name, x in placed.items():
         need = _clearance_m(pattern.panels[name]) - TOL_M
         assert probe.signed_distance(x).min() >= need, name
-    monkeypatch.setattr(place, "UNTANGLE_ROUNDS", 0)
-    assert place._crossings(place_pattern(pattern, meshes, pb), meshes) > 20
+    raw = place_pattern(pattern, meshes, pb, PlacementConfig(untangle_rounds=0))
+    assert crossings(raw, meshes) > 20

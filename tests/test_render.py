@@ -262,6 +262,25 @@ def test_sphere_render_is_not_blank_and_centred(tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["s.png"]
 
 
+def test_style_margin_and_ambient():
+    """RenderStyle: a 25 % margin frames the sphere in half the image height instead of
+    90 %; without ambient light the darkest lit pixel gets darker."""
+    from sandbox.render.view import RenderStyle
+
+    v, t = sphere(radius=0.4)
+    meshes = [{"vertices": v, "triangles": t, "color": (0.8, 0.8, 0.8)}]
+    plain = render_image(meshes, width=160, height=160, backend="numpy")
+    wide = render_image(meshes, width=160, height=160, backend="numpy",
+                        style=RenderStyle(margin=0.25))  # fmt: skip
+    _, _, y0, y1 = non_background_box(plain)
+    _, _, w0, w1 = non_background_box(wide)
+    assert y1 - y0 + 1 == pytest.approx(0.9 * 160, abs=2)
+    assert w1 - w0 + 1 == pytest.approx(0.5 * 160, abs=2)
+    dark = render_image(meshes, width=160, height=160, backend="numpy",
+                        style=RenderStyle(ambient=0.0))  # fmt: skip
+    assert dark.min() < plain.min()
+
+
 def asymmetric_scene():
     body_v, body_t = sphere(radius=0.5, subdivisions=2)
     arm = trimesh.creation.box((0.6, 0.15, 0.15))

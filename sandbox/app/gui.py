@@ -35,7 +35,7 @@ import taichi as ti
 
 from sandbox.app.session import PICK_RADIUS_PX, Session
 from sandbox.errors import SandboxError
-from sandbox.render.offscreen import vertex_normals
+from sandbox.render.view import vertex_normals
 
 BACKGROUND = (1.0, 1.0, 1.0)
 BODY_COLOUR = (0.78, 0.72, 0.64)

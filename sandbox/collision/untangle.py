@@ -3,9 +3,10 @@
 Continuous collision keeps cloth that does not intersect from starting to, but it never
 undoes a crossing it is handed: once a triangle is through another, proximity and impact
 tests only hold it there. Crossings come from outside the solver's guarantees: a placed
-start pushed out of a crease (:func:`sandbox.pattern.place.untangle`), or a seam zone, where
-the self-collider leaves a sewn vertex free against its partner's triangles so the seam can
-close (:mod:`sandbox.collision.self_contact`), and a panel beside it can slip through.
+start pushed out of a crease (:func:`sandbox.pattern.placement.repair.untangle`), or a seam
+zone, where the self-collider leaves a sewn vertex free against its partner's triangles so
+the seam can close (:mod:`sandbox.collision.self_contact`), and a panel beside it can slip
+through.
 
 :func:`untangle_positions` is a local, geometric repair, in the spirit of the intersection
 handling of Baraff, Witkin and Kass 2003 ("Untangling cloth") but far simpler: each round

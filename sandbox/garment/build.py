@@ -3,7 +3,7 @@ the seams' springs (paper §2.3-2.4, Fig. 5), and hand the lot to the same
 :class:`~sandbox.scene.build.Scene` that :func:`~sandbox.scene.run.run_scene` runs.
 
 pattern + mannequin -> :func:`~sandbox.pattern.panel_mesh.mesh_pattern` ->
-:func:`~sandbox.pattern.place.place_pattern` -> ModelBuilder (cloth with its grain, seams)
+:func:`~sandbox.pattern.placement.place.place_pattern` -> ModelBuilder (cloth with its grain, seams)
 -> Model + the mannequin as a :class:`~sandbox.collision.body.BodyCollider` -> Scene, with
 its :class:`GarmentContext` (what the sewing, the metrics and the writer need to know).
 """
@@ -29,7 +29,7 @@ class GarmentContext:
     """What a garment scene knows beyond the simulation: where its panels came from.
 
     Attributes: ``pattern`` (the loaded Pattern), ``mannequin``, ``placement_body`` (the
-    mannequin's :class:`~sandbox.pattern.place.PlacementBody`: landmarks, normals,
+    mannequin's :class:`~sandbox.pattern.placement.body.PlacementBody`: landmarks, normals,
     push-out), ``config`` (the :class:`DrapeConfig` it was built with), ``builder`` (the
     ModelBuilder, kept to make seams live), ``meshes`` (panel name -> PanelMesh),
     ``piece_index`` (panel name -> piece index), ``placed`` (panel name -> (n, 3) placed
@@ -78,7 +78,8 @@ def build_drape(
     from sandbox import runtime
     from sandbox.collision.body import BodyCollider
     from sandbox.pattern.panel_mesh import mesh_pattern, pattern_seam_sides
-    from sandbox.pattern.place import PlacementBody, place_pattern
+    from sandbox.pattern.placement.body import PlacementBody
+    from sandbox.pattern.placement.place import place_pattern
     from sandbox.scene.build import build_self_collider, scene_from_model
     from sandbox.scene.spec import CollisionSpec, SceneSpec, SimulationSpec, StopSpec
     from sandbox.sim.builder import ModelBuilder

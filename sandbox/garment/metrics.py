@@ -65,7 +65,7 @@ def ease_cm(x: np.ndarray, triangles: np.ndarray, mannequin, body=None) -> dict:
     from scipy.spatial import ConvexHull, QhullError
 
     from sandbox.mannequin.tape import girth_at, section_polylines
-    from sandbox.pattern.place import PlacementBody
+    from sandbox.pattern.placement.body import PlacementBody
 
     body = body or PlacementBody(mannequin)
     out = {}
@@ -141,7 +141,7 @@ def fold_metrics(x_start: np.ndarray, x_end: np.ndarray, triangles: np.ndarray,
     A garment hanging from the body keeps its outside out; a hem folded up into a roll, or
     a back panel caught in a fold, turns a band of cloth over. A triangle is turned over
     when its normal turned more than 90 degrees and, with ``body`` (a
-    :class:`~sandbox.pattern.place.PlacementBody`), the side of it that faced away from the
+    :class:`~sandbox.pattern.placement.body.PlacementBody`), the side of it that faced away from the
     body at the start also faces it at the end (its normal against the nearest body
     normal). A strap that bends over the shoulder as it should turns its normal but still
     faces out, so it is not counted; nor is a flare that a hanging hand presses in towards

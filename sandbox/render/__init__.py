@@ -10,12 +10,12 @@ from sandbox.render.meshio import read_mesh, write_mesh
 from sandbox.render.offscreen import (
     BACKENDS,
     ENV_BACKEND,
-    VIEWS,
     image_is_blank,
     render_image,
     render_png,
     resolve_backend,
 )
+from sandbox.render.view import VIEWS
 
 __all__ = [
     "BACKENDS",

@@ -152,21 +152,17 @@ def run_scene(
 
 
 def contact_metrics(model, x: np.ndarray) -> dict:
-    """Contact measures independent of the solver's own detection (issue 4).
+    """Contact measures independent of the solver's own detection, for ``metrics.json``.
 
     ``penetration_max_m`` and ``vertices_inside_body`` over the closed colliders (None
     without one), and ``intersecting_triangle_pairs`` of the cloth by an exact
     triangle-triangle test: pairs sharing a vertex or a seam-joined point are excluded
     (:func:`~sandbox.collision.metrics.seam_joined_pairs`: sewn pairs and, at a junction of
     three panels, partners' partners); ``intersecting_triangle_pairs_sewn_pairs_only``
-    excludes only the sewn pairs themselves (the count until the fifteenth session, 2 Dec 2026).
+    excludes only the sewn pairs themselves. ``x``: (n, 3) cloth positions [m].
     """
-    from sandbox.collision.metrics import (
-        body_inside_check,
-        count_intersecting_pairs,
-        penetration_metrics,
-        seam_joined_pairs,
-    )
+    from sandbox.collision.body_probe import body_inside_check, penetration_metrics
+    from sandbox.collision.metrics import count_intersecting_pairs, seam_joined_pairs
 
     out = {"penetration_max_m": None, "vertices_inside_body": None}
     closed = [c for c in model.colliders if c.closed]
@@ -183,7 +179,7 @@ def contact_metrics(model, x: np.ndarray) -> dict:
     out["intersecting_triangle_pairs"] = count_intersecting_pairs(
         x, model.tri_indices_np, exclude_vertex_pairs=joined
     )
-    if model.seam_count:  # the count before junctions were one point (until the fifteenth session)
+    if model.seam_count:  # only the sewn pairs excluded, not the junctions' partners' partners
         out["intersecting_triangle_pairs_sewn_pairs_only"] = count_intersecting_pairs(
             x, model.tri_indices_np, exclude_vertex_pairs=model.seam_pairs_np
         )
