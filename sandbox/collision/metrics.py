@@ -1,4 +1,4 @@
-"""Contact measures that do not depend on the solver's own collision detection (issue 4).
+"""Contact measures that do not depend on the solver's own collision detection.
 
 Every run reports, in ``metrics.json``:
 

@@ -1,4 +1,4 @@
-"""Place flat pattern panels around the mannequin (issue 5, paper §2.3).
+"""Place flat pattern panels around the mannequin (paper §2.3).
 
 Two placement forms (docs/pattern_format.md):
 

@@ -152,14 +152,14 @@ def run_scene(
 
 
 def contact_metrics(model, x: np.ndarray) -> dict:
-    """Contact measures independent of the solver's own detection (issue 4).
+    """Contact measures independent of the solver's own detection.
 
     ``penetration_max_m`` and ``vertices_inside_body`` over the closed colliders (None
     without one), and ``intersecting_triangle_pairs`` of the cloth by an exact
     triangle-triangle test: pairs sharing a vertex or a seam-joined point are excluded
     (:func:`~sandbox.collision.metrics.seam_joined_pairs`: sewn pairs and, at a junction of
     three panels, partners' partners); ``intersecting_triangle_pairs_sewn_pairs_only``
-    excludes only the sewn pairs themselves (the count until the fifteenth session, 2 Dec 2026).
+    excludes only the sewn pairs themselves (a seam junction's partners' partners then count).
     """
     from sandbox.collision.metrics import (
         body_inside_check,
@@ -183,7 +183,7 @@ def contact_metrics(model, x: np.ndarray) -> dict:
     out["intersecting_triangle_pairs"] = count_intersecting_pairs(
         x, model.tri_indices_np, exclude_vertex_pairs=joined
     )
-    if model.seam_count:  # the count before junctions were one point (until the fifteenth session)
+    if model.seam_count:  # the same count with only the sewn pairs themselves excluded
         out["intersecting_triangle_pairs_sewn_pairs_only"] = count_intersecting_pairs(
             x, model.tri_indices_np, exclude_vertex_pairs=model.seam_pairs_np
         )
@@ -201,8 +201,8 @@ def seam_gap_max(model, x: np.ndarray) -> float:
 
 
 def seam_spring_stretch_max(model, x: np.ndarray) -> float:
-    """Largest seam spring stretch beyond its rest length [m]: the seam gap before the
-    twenty-second session (it counts the cloth's strain along a seam as an opening)."""
+    """Largest seam spring stretch beyond its rest length [m]. Unlike :func:`seam_gap_max` it
+    counts the cloth's strain along a seam as an opening."""
     p = model.seam_pairs_np
     stretch = np.linalg.norm(x[p[:, 0]] - x[p[:, 1]], axis=1) - model.seam_rest_np
     return float(max(0.0, stretch.max()))

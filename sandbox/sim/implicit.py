@@ -72,7 +72,7 @@ CONTACT_STIFFNESS = 1e3
 the body by a hundred times its weight sinks 0.27 mm into the thickness at 1/60 s. Adding
 10 or 100 times the stiffness of the seams and triangles pulling on the vertex (so that a
 seam being sewn cannot pull it deep into the body) made Newton's line search halve its
-steps 20-150 times a step and the sewing of the A-line skirt diverge (ad-hoc runs, 3 Dec
+steps 20-150 times a step and the sewing of the A-line skirt diverge (measured on 3 Dec
 2026); deeper pulls are left to the contact response after the solve."""
 CONTACT_REACH_M = 2e-2
 """A vertex gets a contact plane for the step when a body face is within this distance [m]
