@@ -483,9 +483,9 @@ def why_not_faster(runs: list[CaseRun]) -> list[str]:
         "docs/implicit.md): the strip's matrix has a narrow band after reverse Cuthill-McKee "
         "ordering, so a banded Cholesky factorisation costs about 2 ms, and a step takes two "
         "or three Newton iterations whatever the stiffness. With matrix-free CG and a "
-        'block-Jacobi preconditioner (the earlier solver, still `linear_solver = "cg"`), '
-        "one step needed about as many matrix products as the explicit solver takes steps "
-        "in the same time (κ ≈ (h·ω_max)²), and the large step bought nothing (2×). Most of "
+        'block-Jacobi preconditioner (`linear_solver = "cg"`, what a GPU runs), '
+        "one step needs about as many matrix products as the explicit solver takes steps "
+        "in the same time (κ ≈ (h·ω_max)²), and the large step buys little (2×). Most of "
         "the remaining cost per step is fixed overhead (kernel launches and read-backs from "
         "Python, about 10 ms per step at 135 vertices), so the largest step that keeps the "
         "accuracy is the cheapest: a whole 1/30 s frame per step.",
