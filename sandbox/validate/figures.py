@@ -97,9 +97,10 @@ def demo_figure(root: Path) -> Figure:
         "(bust / waist / hip)"
     )
     edge = m.get("edge_length_m")
+    mesh = "-" if edge is None else f"{edge * 100:g}"
     name = (
         f"Demo: {m.get('garment')} in {m.get('fabric')}, size {m.get('mannequin_size')}, "
-        f"{'-' if edge is None else f'{edge * 100:g}'} cm mesh, {m.get('vertex_count')} vertices"
+        f"{mesh} cm mesh, {m.get('vertex_count', 0):,} vertices"
     )
     return Figure(name, value, "python -m sandbox demo --out docs/demo", DEMO)
 
