@@ -150,6 +150,7 @@ def gallery(
     header += fabrics + ". Reproduce: `python -m sandbox gallery" + (" --quick" if quick else "")
     header += " --integrator implicit_euler" if implicit else ""
     header += (f" --size {size}" if size != 12 else "") + (f" --jobs {jobs}" if jobs > 1 else "")
+    header += f" --out {Path(out_dir).as_posix()}" if Path(out_dir) != Path("docs/gallery") else ""
     header += "`"
     if earlier:
         header += (f" ({len(earlier)} of {len(chosen)} garments read back from earlier drapes with "
