@@ -7,7 +7,7 @@ mannequin (~17k triangles). After each ``--settle`` time (simulated seconds of d
 self-collision: at 0.3 s the sides still fall at up to 5 m/s, at 3 s the sheet hangs in
 folds around the body, its fastest vertex below 0.6 m/s), we time solver steps with the
 body collider, with the body collider and self-collision, and the same steps with none.
-Targets (issue 4): body collision adds at most 50 % to the step, self-collision at most
+Targets: body collision adds at most 50 % to the step, self-collision at most
 150 %.
 """
 

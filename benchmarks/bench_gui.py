@@ -8,7 +8,7 @@ Renderer), float32 on the CPU. With a window, the frame rate is that of the real
 ``--frames`` frames; the simulation gets what is left of 1/30 s after the rest (or
 ``--budget`` s if given). Off-screen, the same loop is drawing + reading the image back.
 Slider latency = resizing the mannequin (§2.1.4) + moving the collider + drawing the next
-frame. Target (issue 6): >= 30 fps with a 5k-vertex garment simulating; a slider change
+frame. Target: >= 30 fps with a 5k-vertex garment simulating; a slider change
 shows within 100 ms.
 """
 
@@ -34,7 +34,7 @@ def main() -> None:
         default=None,
         help="fixed simulation wall time per frame [s] (default: what 30 fps leaves)",
     )
-    add_precision_flags(ap)  # the figures in docs/results/bench_gui.txt before 2 Dec: float32
+    add_precision_flags(ap)
     args = ap.parse_args()
     from sandbox import runtime
     from sandbox.app.gui import FrameBudget, Renderer, run_window

@@ -390,8 +390,8 @@ def krylov_bound(name: str = "t-shirt", edge_m: float = 0.01, systems: int = 3):
 def drape_newton(name: str = "sleeveless-blouse", contact_in_energy: bool = True):
     """Newton's convergence over a whole implicit drape at 3 cm (size 12, the garment's
     fabric): steps, unconverged steps, mean Newton iterations, line-search halvings, and the
-    drape's acceptance figures. ``contact_in_energy=False`` runs the solver as before
-    the nineteenth session (contact only after the solve)."""
+    drape's acceptance figures. ``contact_in_energy=False`` leaves body contact out
+    of Newton's energy (contact only after the solve)."""
     from sandbox.garment import (
         DrapeConfig,
         build_drape,

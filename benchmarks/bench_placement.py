@@ -6,8 +6,7 @@ of the placed garment (exact test; contact handling keeps a start crossing for g
 principal stretches of every triangle against its pattern shape (largest, smallest, the
 share off by more than 10 %), the smallest distance to the body [mm] and the placement's
 wall time. ``--no-untangle`` places without :func:`sandbox.pattern.placement.repair.untangle` and
-with each panel's relaxation kept only where it adds no crossing (the code before 2 Dec
-2026), for comparison.
+with each panel's relaxation kept only where it adds no crossing, for comparison.
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ Usage: python benchmarks/bench_step.py [--sizes 1000 4000 16000 64000] [--arch c
 
 Builds a hanging cotton sheet with about N vertices through the normal scene path, times
 the solver's ``advance`` (the path runs use) and the one-launch-per-step ``step`` path,
-and prints the machine it ran on. Target (issue 2): 20 M vertex-steps/s at 16k vertices.
+and prints the machine it ran on. Target: 20 M vertex-steps/s at 16k vertices.
 """
 
 import argparse
@@ -59,7 +59,7 @@ def main() -> None:
     ap.add_argument("--arch", default="cpu")
     ap.add_argument("--seconds", type=float, default=3.0)
     args = ap.parse_args()
-    runtime.init(args.arch, float64=False)  # issue 2 measures the float32 step
+    runtime.init(args.arch, float64=False)  # the target is for the float32 step
     print(f"machine: {platform.machine()}, {os.cpu_count()} cores, {platform.processor() or '?'}"
           f", Python {platform.python_version()}, Taichi {'.'.join(map(str, ti.__version__))},"
           f" arch={args.arch}, float32")  # fmt: skip

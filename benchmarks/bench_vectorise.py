@@ -1,4 +1,4 @@
-"""Does Taichi's CPU backend vectorise our loops? (issue 2's throughput gap)
+"""Does Taichi's CPU backend vectorise our loops? (why the step is below its throughput target)
 
 Usage: python benchmarks/bench_vectorise.py [--n 1048576]
 

@@ -51,6 +51,7 @@ def build_parser() -> argparse.ArgumentParser:
         "  python -m sandbox gui sheath-dress --size 12\n"
         "  python -m sandbox render out/t-shirt --turntable\n"
         "  python -m sandbox report --quick\n"
+        "  python -m sandbox figures\n"
         "Scene files are documented in docs/scene_format.md.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
@@ -120,6 +121,7 @@ FORWARDED = {
     "gui": "sandbox.app.cli",
     "render": "sandbox.render.studio",
     "report": "sandbox.validate.report",
+    "figures": "sandbox.validate.figures",
 }
 """Sub-commands that are a module's own ``main(argv)``; their options are theirs."""
 
@@ -127,6 +129,7 @@ FORWARDED_HELP = {
     "gui": "the interactive sandbox: mannequin sliders, click-to-sew, drag (or --offscreen)",
     "render": "Open3D renders of saved results: front, back, turntable PNG and video",
     "report": "error-against-run-time and stability reports (docs/error-vs-runtime.md)",
+    "figures": "the README's table of figures, read from the generated files (docs/figures.md)",
 }
 
 

@@ -1,4 +1,4 @@
-"""The interactive sandbox's state and actions, without a window (issue 6).
+"""The interactive sandbox's state and actions, without a window.
 
 A :class:`Session` holds one garment's panels placed around the mannequin, simulating, and
 everything a user does to it: resize the mannequin with the seven measurements, sew panel

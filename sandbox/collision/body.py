@@ -29,10 +29,10 @@ MAX_CELLS_PER_QUERY = 512
 NEAREST_REACH_CELLS = (round(MAX_CELLS_PER_QUERY ** (1.0 / 3.0)) - 2) / 2
 """A nearest-face query (:meth:`BodyCollider.contact_planes`) reaches at most this many cells
 [cell sizes]: its box then spans at most 8 cells an axis, 512 in all, so it is searched
-whole. A wider reach was searched only in its first 512 cells, lowest x first: a vertex
-5 mm outside a shrunk sphere (the stability report's x0.7 resize row; reach 2 cm + twice
-the step's predicted move) got a face on the far side as its plane and was lifted
-1-2.3 cm (4 Dec 2026)."""
+whole. A box searched only in its first 512 cells (lowest x first) can return a face on the
+body's far side: a vertex 5 mm outside a shrunk sphere (the stability report's x0.7 resize
+row; reach 2 cm + twice the step's predicted move) would take it as its plane and be lifted
+1-2.3 cm."""
 # Triangles are binned with their box grown by this many thicknesses h. A vertex whose
 # step |x1 - x| is at most that pad finds, in the one cell of its end point x1, every
 # triangle within h of x1 and every triangle its step crosses (the crossing point is within

@@ -186,6 +186,7 @@ def _header(*, size, edge_m, quick, integrator, jobs, read_back, total) -> str:
     header += fabrics + ". Reproduce: `python -m sandbox gallery" + (" --quick" if quick else "")
     header += " --integrator implicit_euler" if implicit else ""
     header += (f" --size {size}" if size != 12 else "") + (f" --jobs {jobs}" if jobs > 1 else "")
+    header += f" --out {Path(out_dir).as_posix()}" if Path(out_dir) != Path("docs/gallery") else ""
     header += "`"
     if read_back:
         header += (f" ({read_back} of {total} garments read back from earlier drapes with "
@@ -280,7 +281,7 @@ def earlier_drape(folder, name: str, size: int, edge_length_m: float, fabric: st
         differs.append(f"size {m.get('mannequin_size')}")
     edge = m.get("edge_length_m")
     if edge is None:
-        differs.append("no mesh edge recorded (metrics from before the seventeenth session)")
+        differs.append("no mesh edge recorded")
     elif not math.isclose(edge, edge_length_m, rel_tol=1e-6):
         differs.append(f"mesh edge {edge * 100:g} cm")
     if fabric is not None and m.get("fabric") != fabric:
@@ -426,8 +427,8 @@ def write_table(path, rows: list[dict], header: str = "") -> Path:
         "hangs from (shoulder point or waist; negative: above it); more than 3 cm counts as "
         "slid off. Folded: the share of the garment's area that ended turned over (normal "
         "turned more than 90 degrees from the placed one, and facing the body with the side "
-        "that faced away from it); more than 2 % counts as rolled up. Meets acceptance "
-        "(issue 5): converged, seam gap "
+        "that faced away from it); more than 2 % counts as rolled up. Meets acceptance: "
+        "converged, seam gap "
         "<= 2 mm, nothing inside the body deeper than 1 mm, no intersecting pairs, neither "
         "slid off nor rolled up. Ease: garment girth "
         "minus body girth at the bust, waist and hip heights (convex hull of the section, as "

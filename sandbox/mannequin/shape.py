@@ -16,7 +16,7 @@ from sandbox.mannequin.measurements import SizeEntry
 SHOULDER_SLOPE_RAD = math.radians(20.0)  # shoulder line below horizontal
 ARM_ANGLE_MIN_RAD = math.radians(16.0)  # A-pose: smallest arm angle from vertical
 # A-pose: the arm opens until its elbow, forearm and wrist clear the torso by this much [m].
-# 3 cm (1.2 cm until the thirteenth session) leaves room in the crease between arm and
+# 3 cm leaves room in the crease between arm and
 # torso for a sleeve's underarm seam, a bodice's side seam and their contact thickness.
 ARM_CLEARANCE_M = 0.03
 

@@ -144,7 +144,6 @@ def run_scene(
     if model.seam_count:
         metrics["seam_count"] = model.seam_count
         metrics["seam_gap_max_m"] = seam_gap_max(model, x_final)
-        metrics["seam_spring_stretch_max_m"] = seam_spring_stretch_max(model, x_final)
     metrics.update(contact_metrics(model, x_final))
     log.info("%s: %s after %d steps (%.2f s simulated, %.2f s wall)", spec.name, reason,
              steps, frame * frame_s, wall)  # fmt: skip
@@ -158,8 +157,7 @@ def contact_metrics(model, x: np.ndarray) -> dict:
     without one), and ``intersecting_triangle_pairs`` of the cloth by an exact
     triangle-triangle test: pairs sharing a vertex or a seam-joined point are excluded
     (:func:`~sandbox.collision.metrics.seam_joined_pairs`: sewn pairs and, at a junction of
-    three panels, partners' partners); ``intersecting_triangle_pairs_sewn_pairs_only``
-    excludes only the sewn pairs themselves. ``x``: (n, 3) cloth positions [m].
+    three panels, partners' partners). ``x``: (n, 3) cloth positions [m].
     """
     from sandbox.collision.body_probe import body_inside_check, penetration_metrics
     from sandbox.collision.metrics import count_intersecting_pairs, seam_joined_pairs
@@ -179,10 +177,6 @@ def contact_metrics(model, x: np.ndarray) -> dict:
     out["intersecting_triangle_pairs"] = count_intersecting_pairs(
         x, model.tri_indices_np, exclude_vertex_pairs=joined
     )
-    if model.seam_count:  # only the sewn pairs excluded, not the junctions' partners' partners
-        out["intersecting_triangle_pairs_sewn_pairs_only"] = count_intersecting_pairs(
-            x, model.tri_indices_np, exclude_vertex_pairs=model.seam_pairs_np
-        )
     return out
 
 
@@ -194,14 +188,6 @@ def seam_gap_max(model, x: np.ndarray) -> float:
 
     gap = seam_openings(model.seam_pairs_np, model.seam_rest_np, x)
     return float(max(0.0, gap.max()))
-
-
-def seam_spring_stretch_max(model, x: np.ndarray) -> float:
-    """Largest seam spring stretch beyond its rest length [m]: the seam gap before the
-    twenty-second session (it counts the cloth's strain along a seam as an opening)."""
-    p = model.seam_pairs_np
-    stretch = np.linalg.norm(x[p[:, 0]] - x[p[:, 1]], axis=1) - model.seam_rest_np
-    return float(max(0.0, stretch.max()))
 
 
 def dt_warning(scene: Scene) -> str | None:

@@ -1,4 +1,4 @@
-"""A guard around any solver: detect instability, roll back, shrink dt, go on (issue 7).
+"""A guard around any solver: detect instability, roll back, shrink dt, go on.
 
 The guard advances a scene frame by frame. Before each frame it keeps the last good state
 (positions and velocities, numpy copies through ``State.positions()/velocities()``). After

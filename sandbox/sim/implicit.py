@@ -71,9 +71,9 @@ CONTACT_STIFFNESS = 1e3
 """Body contact penalty stiffness as a multiple of a vertex's m/h² [1]: a vertex pressed on
 the body by a hundred times its weight sinks 0.27 mm into the thickness at 1/60 s. Adding
 10 or 100 times the stiffness of the seams and triangles pulling on the vertex (so that a
-seam being sewn cannot pull it deep into the body) made Newton's line search halve its
-steps 20-150 times a step and the sewing of the A-line skirt diverge (ad-hoc runs, 3 Dec
-2026); deeper pulls are left to the contact response after the solve."""
+seam being sewn cannot pull it deep into the body) makes Newton's line search halve its
+steps 20-150 times a step and the sewing of the A-line skirt diverge; deeper pulls are
+left to the contact response after the solve."""
 CONTACT_REACH_M = 2e-2
 """A vertex gets a contact plane for the step when a body face is within this distance [m]
 plus twice its predicted motion (|x̂ − x_n|) of its start."""
@@ -83,8 +83,8 @@ means planes that do not bound the body near the vertex, and it is not made."""
 LIFT_MIN_SIN2 = 0.25
 """A crease's two planes are both used for a lift only when sin² of the angle between their
 normals exceeds this (30° to 150°): the line where nearly parallel or opposite planes meet
-is far away. The first version (1e-9) stretched the vest and the T-shirt's triangles to
-3.2 times their length in the gallery (3 Dec 2026)."""
+is far away (with 1e-9 the vest's and the T-shirt's triangles stretch to 3.2 times their
+length in the gallery)."""
 PLANE_BAND_M = 1e-9
 """A vertex within this distance [m] of a contact plane, or behind it, has the plane's
 penalty in its Newton matrix; one farther in front does not, and a Newton step that would
@@ -1068,8 +1068,8 @@ class ImplicitEulerSolver:
         2.9 mm into the sleeveless blouse's armpit sank to 13.6 mm (each step's plane began
         where the membrane's pull had left it). Nor can the penalty pull it out: at 3 cm the
         membrane pulling a vertex across the armpit is stiffer than m/h² x
-        CONTACT_STIFFNESS; with planes that asked such vertices out at 0.1 m/s two of them
-        stayed 12.7 mm inside (3 Dec 2026). Only vertices that start inside the body are lifted,
+        CONTACT_STIFFNESS (planes that ask such vertices out at 0.1 m/s leave two of them
+        12.7 mm inside). Only vertices that start inside the body are lifted,
         so a vertex sliding off the edge of its face's plane is not. The way out moves the
         vertex but is not kept as velocity (``_drift``): no launch, as in the explicit
         solver's ``respond_split``.

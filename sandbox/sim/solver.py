@@ -28,7 +28,7 @@ from sandbox.sim.model import Control, Model, State  # noqa: F401 (used in annot
 # launch, which saves the parallel path's launch and thread start-up per step. Measured on
 # 2 cores (2026-12-01, benchmarks/bench_step.py, M vertex-steps/s serial fused vs
 # parallel): 2.3k vertices 7.5 vs 5.6, 4.5k 7.4 vs 8.2, 9k 7.3 vs 8.2, 18k 7.2 vs 11.8.
-# (An earlier session measured the parallel path slower up to 18k on a busier VM.) On a
+# The crossover moves with the machine's load; on a
 # GPU every step is a parallel launch.
 FUSED_PARTICLE_LIMIT = 4000
 NO_STEP = 2**31 - 1

@@ -1,4 +1,4 @@
-"""Validation scenes of the error-against-run-time report (issue 7 item 3).
+"""Validation scenes of the error-against-run-time report.
 
 Each ``*_case`` function builds one scene for an integrator, a time step and a mesh size,
 runs it through the guarded run loop (``sandbox.scene.run.run_scene``) with a wall-clock

@@ -252,6 +252,7 @@ def _report(args) -> int:
     started = time.perf_counter()
     stamp = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
     data = {"mode": mode, "command": cmd, "machine": machine, "date": stamp, "plan": _plan_json(p)}
+    written = {"date": stamp, "machine": machine}  # each part's own, kept by a later --only run
 
     def log(line: str):
         print(line, flush=True)
@@ -264,7 +265,7 @@ def _report(args) -> int:
         log(PRESET_HEAD)
         presets = preset_runs(p["presets"], p["wall"], log)
         data.update(runs=[r.as_dict() for r in runs], sheet_reference=ref, speedup=speed,
-                    presets=presets)  # fmt: skip
+                    presets=presets, error_written=written)  # fmt: skip
         _save(out, data, args.only)
         png = out / "report" / "error_vs_runtime.png"
         from sandbox.validate.plot import loglog_png
@@ -289,7 +290,8 @@ def _report(args) -> int:
         if e is not None:
             ext = stability.extremes(INTEGRATORS, e["time_s"], e["wall"], ramp=e["ramp"],
                                      on_cell=lambda c: log(stability.cell_row(c)))  # fmt: skip
-        data.update(matrix=[c.as_dict() for c in cells], extremes=[c.as_dict() for c in ext])
+        data.update(matrix=[c.as_dict() for c in cells], extremes=[c.as_dict() for c in ext],
+                    stability_written=written)  # fmt: skip
         _save(out, data, args.only)
         write_text(out / "stability.md", stability_markdown(data, cells, ext, p))
     data["total_wall_s"] = time.perf_counter() - started
@@ -311,9 +313,9 @@ def _save(out: Path, data: dict, only: str) -> None:
         except ValueError:
             old = {}
         if old.get("mode") == data["mode"]:
-            keep = ("matrix", "extremes")
+            keep = ("matrix", "extremes", "stability_written")
             if only == "stability":
-                keep = ("runs", "sheet_reference", "speedup", "presets")
+                keep = ("runs", "sheet_reference", "speedup", "presets", "error_written")
             for k in keep:
                 if k in old and k not in data:
                     merged[k] = old[k]
@@ -381,10 +383,11 @@ def _jsonable(x):
 
 
 def error_markdown(data, runs, speed, presets, ref) -> str:
+    made = data.get("error_written") or data  # when and where the error runs were made
     lines = [
-        "# Error against run time (issue 7, item 3)",
+        "# Error against run time",
         "",
-        f"Written by `{data['command']}` on {data['date']} ({data['machine']}; the 2-core CPU is "
+        f"Written by `{data['command']}` on {made['date']} ({made['machine']}; the 2-core CPU is "
         "shared with other agents, so wall times vary with the load; compare rows of one "
         "run). Raw numbers: [report/report.json](report/report.json). Scenes and references: "
         "`sandbox/validate/cases.py`.",
@@ -480,9 +483,9 @@ def why_not_faster(runs: list[CaseRun]) -> list[str]:
         "docs/implicit.md): the strip's matrix has a narrow band after reverse Cuthill-McKee "
         "ordering, so a banded Cholesky factorisation costs about 2 ms, and a step takes two "
         "or three Newton iterations whatever the stiffness. With matrix-free CG and a "
-        'block-Jacobi preconditioner (the earlier solver, still `linear_solver = "cg"`), '
-        "one step needed about as many matrix products as the explicit solver takes steps "
-        "in the same time (κ ≈ (h·ω_max)²), and the large step bought nothing (2×). Most of "
+        'block-Jacobi preconditioner (`linear_solver = "cg"`, what a GPU runs), '
+        "one step needs about as many matrix products as the explicit solver takes steps "
+        "in the same time (κ ≈ (h·ω_max)²), and the large step buys little (2×). Most of "
         "the remaining cost per step is fixed overhead (kernel launches and read-backs from "
         "Python, about 10 ms per step at 135 vertices), so the largest step that keeps the "
         "accuracy is the cheapest: a whole 1/30 s frame per step.",
@@ -519,10 +522,11 @@ GUARD_TEXT = [
 
 def stability_markdown(data, cells, ext, p) -> str:
     m = p["matrix"]
+    made = data.get("stability_written") or data  # when and where the matrix was run
     lines = [
-        "# Stability matrix (issue 7, item 4)",
+        "# Stability matrix",
         "",
-        f"Written by `{data['command']}` on {data['date']} ({data['machine']}). Raw numbers: "
+        f"Written by `{data['command']}` on {made['date']} ({made['machine']}). Raw numbers: "
         "[report/report.json](report/report.json). Code: `sandbox/validate/stability.py`.",
         "",
         "Matrix: a 20 × 20 cm sheet on a 2 cm mesh starts flat and horizontal and falls, "

@@ -1,4 +1,4 @@
-"""The stability matrix (issue 7 item 4): stiffness × dt × integrator, and extreme cases.
+"""The stability matrix: stiffness × dt × integrator, and extreme cases.
 
 Matrix cells: a 20 × 20 cm sheet on a 2 cm mesh starts flat and horizontal and falls,
 hanging from its two top corners (damping 1/s). Stiffness rows: the softest measured preset
