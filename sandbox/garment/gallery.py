@@ -121,8 +121,9 @@ def gallery(
                   f"{row['converged']}, seam gap {_mm(row['seam_gap_max_m'])} mm, inside "
                   f"{row['vertices_inside_body']}, pairs {row['intersecting_triangle_pairs']}",
                   flush=True)  # fmt: skip
-    header = _header(size=size, edge_m=edge, quick=quick, integrator=integrator, jobs=jobs,
-                     read_back=len(earlier), total=len(chosen))  # fmt: skip
+    header = _header(out_dir=out_dir, size=size, edge_m=edge, quick=quick,
+                     integrator=integrator, jobs=jobs, read_back=len(earlier),
+                     total=len(chosen))  # fmt: skip
     return [
         write_sheet(out / "gallery.png", tiles),
         write_table(out / "gallery.md", rows, header),
@@ -176,7 +177,7 @@ class _InProcess:
         return _row(name, res.metrics), _front_tile(res)
 
 
-def _header(*, size, edge_m, quick, integrator, jobs, read_back, total) -> str:
+def _header(*, out_dir, size, edge_m, quick, integrator, jobs, read_back, total) -> str:
     """The table's first line: what was draped and the command that reproduces it."""
     implicit = integrator == "implicit_euler"
     fabrics = f", every garment in {QUICK_FABRIC}" if quick else ", each garment's fabric"
