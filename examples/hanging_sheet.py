@@ -96,8 +96,10 @@ def main() -> None:
           f"(< 1.5), mean {m['mean_displacement_m'] * 1e3:.4f} mm (< 0.1)")  # fmt: skip
     print(f"sag: top edge middle {(pin_y - top_mid[1]) * 100:.1f} cm below the pins, "
           f"lowest point {(pin_y - x[:, 1].min()) * 100:.1f} cm below them")  # fmt: skip
-    print(f"strain S-1: warp max {s[:, 0].max() * 100:.2f} %, mean {s[:, 0].mean() * 100:.3f} %;"
-          f" weft max {s[:, 1].max() * 100:.2f} %, mean {s[:, 1].mean() * 100:.3f} %")
+    print(
+        f"strain S-1: warp max {s[:, 0].max() * 100:.2f} %, mean {s[:, 0].mean() * 100:.3f} %;"
+        f" weft max {s[:, 1].max() * 100:.2f} %, mean {s[:, 1].mean() * 100:.3f} %"
+    )
 
     if args.out:
         args.out.mkdir(parents=True, exist_ok=True)
