@@ -72,7 +72,7 @@ def main() -> None:
     )
     print(
         f"implicit: {r_se.metrics['steps'] / r_ie.metrics['steps']:.0f}x fewer steps, "
-        f"{r_se.metrics['wall_time_s'] / r_ie.metrics['wall_time_s']:.1f}x the speed"
+        f"{r_se.metrics['wall_time_s'] / r_ie.metrics['wall_time_s']:.1f}x as fast"
     )
     print(f"the two resting strips differ by {apart.max() * 1e3:.3f} mm at most "
           f"({apart.max() / LENGTH_M * 100:.3f} % of L)")  # fmt: skip
