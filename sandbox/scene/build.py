@@ -16,6 +16,7 @@ from sandbox.errors import SandboxError
 from sandbox.pattern.mesh2d import mesh_grid, mesh_polygon
 from sandbox.scene.spec import ClothSpec, PinSpec, SceneSpec
 from sandbox.sim.builder import ModelBuilder
+from sandbox.sim.integrator import Integrator
 from sandbox.sim.model import Control, Model, State
 from sandbox.sim.solver import SymplecticEulerSolver
 
@@ -34,7 +35,7 @@ class Scene:
     model: Model
     state: State
     control: Control
-    solver: SymplecticEulerSolver
+    solver: Integrator
     dt_s: float
     steps_per_frame: int
     dt_limit_s: float
@@ -252,10 +253,11 @@ def damped_step(limit_s: float, beta_s: float) -> float:
     return limit_s * (math.sqrt(1.0 + zeta * zeta) - zeta)
 
 
-def make_solver(model: Model, integrator: str, linear_solver: str = "auto"):
+def make_solver(model: Model, integrator: str, linear_solver: str = "auto") -> Integrator:
     """The solver named by ``[simulation] integrator`` (and ``linear_solver``)."""
     if integrator == "implicit_euler":
         from sandbox.sim.implicit import ImplicitEulerSolver
+        from sandbox.sim.implicit_config import ImplicitConfig
 
-        return ImplicitEulerSolver(model, linear_solver=linear_solver)
+        return ImplicitEulerSolver(model, config=ImplicitConfig(linear_solver=linear_solver))
     return SymplecticEulerSolver(model)
