@@ -217,6 +217,8 @@ def oscillation():
 def cantilever():
     from sandbox.scene.build import build_scene
     from sandbox.scene.run import run_scene
+    from sandbox.sim.implicit import ImplicitEulerSolver
+    from sandbox.sim.implicit_config import ImplicitConfig
     from sandbox.validate.cantilever import LENGTH_M, cantilever_spec
     from sandbox.validate.elastica import tip
 
@@ -229,7 +231,9 @@ def cantilever():
         spec.simulation.integrator = integ
         sc = build_scene(spec)
         if tol is not None:
-            sc.solver.tol_m_s, sc.solver.rel_tol, sc.solver.cg_tol = tol
+            config = ImplicitConfig(tol_m_s=tol[0], rel_tol=tol[1], cg_tol=tol[2],
+                                    linear_solver=spec.simulation.linear_solver)  # fmt: skip
+            sc.solver = ImplicitEulerSolver(sc.model, config=config)
         t0 = time.perf_counter()
         res = run_scene(sc, progress=False)
         wall = time.perf_counter() - t0
