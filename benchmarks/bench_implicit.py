@@ -217,7 +217,6 @@ def oscillation():
 def cantilever():
     from sandbox.scene.build import build_scene
     from sandbox.scene.run import run_scene
-    from sandbox.sim.implicit import ImplicitEulerSolver
     from sandbox.sim.implicit_config import ImplicitConfig
     from sandbox.validate.cantilever import LENGTH_M, cantilever_spec
     from sandbox.validate.elastica import tip
@@ -229,11 +228,10 @@ def cantilever():
     for integ, tol in configs:
         spec = cantilever_spec(lam, edge)
         spec.simulation.integrator = integ
-        sc = build_scene(spec)
+        config = None
         if tol is not None:
-            config = ImplicitConfig(tol_m_s=tol[0], rel_tol=tol[1], cg_tol=tol[2],
-                                    linear_solver=spec.simulation.linear_solver)  # fmt: skip
-            sc.solver = ImplicitEulerSolver(sc.model, config=config)
+            config = ImplicitConfig(tol_m_s=tol[0], rel_tol=tol[1], cg_tol=tol[2])
+        sc = build_scene(spec, implicit=config)
         t0 = time.perf_counter()
         res = run_scene(sc, progress=False)
         wall = time.perf_counter() - t0

@@ -2,14 +2,16 @@
 
 import pytest
 
+from sandbox.collision.self_contact_config import SelfContactConfig
 from sandbox.scene.build import build_scene
 from sandbox.scene.spec import scene_from_dict
 from sandbox.sim.implicit import ImplicitEulerSolver
+from sandbox.sim.implicit_config import ImplicitConfig, resolve_linear_solver
 from sandbox.sim.integrator import ContactFriction, Integrator
 from sandbox.sim.solver import SymplecticEulerSolver
 
 
-def _scene(integrator: str):
+def _scene(integrator: str, **configs):
     return build_scene(scene_from_dict({
         "scene": {"name": "integrator-test"},
         "simulation": {"integrator": integrator},
@@ -19,7 +21,7 @@ def _scene(integrator: str):
         "collision": {"friction_static": 0.4, "friction_kinetic": 0.3},
         "collider": [{"name": "ball", "shape": "sphere", "center_m": [0.0, 0.0, 0.0],
                       "radius_m": 0.1, "subdivisions": 2}],
-    }, source="test_integrator"))  # fmt: skip
+    }, source="test_integrator"), **configs)  # fmt: skip
 
 
 @pytest.mark.parametrize(
@@ -64,3 +66,15 @@ def test_friction_without_a_self_collider_leaves_the_cloth_value_out():
     solver.self_collider = scene.model.self_collider
     assert solver.friction().cloth == pytest.approx(0.3)
     assert solver.friction().body[0] == pytest.approx((0.1, 0.1))
+
+
+def test_build_scene_passes_the_solver_settings_on():
+    """The typed settings reach the solver and the self-collider; the scene's
+    ``linear_solver`` wins over the config's."""
+    scene = _scene("implicit_euler", implicit=ImplicitConfig(contact_stiffness=2e3,
+                                                             linear_solver="cg"),
+                   self_contact=SelfContactConfig(ccd_passes=4))  # fmt: skip
+    assert scene.solver.config.contact_stiffness == 2e3
+    assert scene.solver.linear_solver == resolve_linear_solver("auto")
+    assert scene.model.self_collider.config.ccd_passes == 4
+    assert _scene("implicit_euler").solver.config == ImplicitConfig()
