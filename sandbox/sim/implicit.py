@@ -136,7 +136,7 @@ class ImplicitEulerSolver(NewtonSystem, LinearSolve, LineSearch, BodyContact):
         """Advance one backward Euler step of ``dt`` [s] from ``state_in`` into ``state_out``.
 
         ``state_out`` may be ``state_in``. ``dt <= 0`` copies the state (and compiles the
-        kernels, as ``run_scene``'s warm-up expects).
+        kernels, as :meth:`warm_up`).
         """
         if dt <= 0.0:
             self.warm_up(state_in, control)
