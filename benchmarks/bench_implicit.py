@@ -217,6 +217,7 @@ def oscillation():
 def cantilever():
     from sandbox.scene.build import build_scene
     from sandbox.scene.run import run_scene
+    from sandbox.sim.implicit_config import ImplicitConfig
     from sandbox.validate.cantilever import LENGTH_M, cantilever_spec
     from sandbox.validate.elastica import tip
 
@@ -227,9 +228,10 @@ def cantilever():
     for integ, tol in configs:
         spec = cantilever_spec(lam, edge)
         spec.simulation.integrator = integ
-        sc = build_scene(spec)
+        config = None
         if tol is not None:
-            sc.solver.tol_m_s, sc.solver.rel_tol, sc.solver.cg_tol = tol
+            config = ImplicitConfig(tol_m_s=tol[0], rel_tol=tol[1], cg_tol=tol[2])
+        sc = build_scene(spec, implicit=config)
         t0 = time.perf_counter()
         res = run_scene(sc, progress=False)
         wall = time.perf_counter() - t0

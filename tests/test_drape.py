@@ -73,9 +73,8 @@ def test_sewing_hands_back_the_scene_as_it_found_it(skirt_run):
     assert isinstance(m["sew_stalled"], bool) and m["sew_frames"] > 0
     assert m["sew_at_rest"] is False  # the explicit solver keeps its velocities
     assert scene.solver.speed_limit[None] == 0.0
-    body = scene.model.colliders
-    assert body and all(c.mu_s[None] == pytest.approx(0.4) for c in body)
-    assert all(c.mu_k[None] == pytest.approx(0.3) for c in body)
+    body = scene.solver.friction().body  # (μ_s, μ_k) of each body collider
+    assert body and all(mu == pytest.approx((0.4, 0.3)) for mu in body)
 
 
 def test_ease_of_a_cylinder(mannequin):
@@ -175,13 +174,12 @@ def test_implicit_drape_on_a_fine_mesh_warns():
 def test_the_seam_exclusion_narrows_to_the_partners(skirt_run):
     """Self-collision leaves out a vertex's seam partners (and their partners, for junctions
     of three panels) with their mesh neighbours (the default, so seams can close), or only
-    the partners when asked; edge-edge tests the same."""
+    the partners when asked; vertex-triangle and edge-edge tests share the list."""
     model = skirt_run[0].scene.model
     collider, pairs = model.self_collider, model.seam_pairs_np
 
-    def excluded(v, edges=False):
-        start = (collider.ee_partner_start if edges else collider.partner_start).to_numpy()
-        flat = (collider.ee_partner if edges else collider.partner).to_numpy()
+    def excluded(v):
+        start, flat = collider.partner_start.to_numpy(), collider.partner.to_numpy()
         return set(flat[start[v] : start[v + 1]].tolist())
 
     def sewn(v):
@@ -193,10 +191,8 @@ def test_the_seam_exclusion_narrows_to_the_partners(skirt_run):
     try:
         collider.set_seam_partners(pairs, neighbours=True)
         wide = excluded(a)
-        assert excluded(a, edges=True) == wide
         collider.set_seam_partners(pairs, neighbours=False)
         assert excluded(a) == partners
-        assert excluded(a, edges=True) == partners
         assert partners < wide and len(wide) >= len(partners) + 3
     finally:
         collider.set_seam_partners(pairs)

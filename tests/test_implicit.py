@@ -14,6 +14,7 @@ from sandbox.scene.build import build_scene
 from sandbox.scene.spec import scene_from_dict
 from sandbox.sim import forces, hessians
 from sandbox.sim.implicit import ImplicitEulerSolver
+from sandbox.sim.implicit_config import ImplicitConfig
 from sandbox.sim.materials import get_material
 
 # ---------------------------------------------------------------------------- Hessians
@@ -333,7 +334,9 @@ def test_assembled_matrix_equals_the_matrix_free_product(seams):
     s, m = scene.solver, scene.model
     assert s.linear_solver == "direct"  # the CPU default
     if seams:  # a live seam (rest 0 and rest > 0) changes the pattern
-        sewn = ImplicitEulerSolver(_with_seams(scene), linear_solver="direct")
+        sewn = ImplicitEulerSolver(
+            _with_seams(scene), config=ImplicitConfig(linear_solver="direct")
+        )
         s, m = sewn, sewn.model
     s.advance(scene.state, scene.control, scene.dt_s, 2)
     n = m.particle_count
@@ -379,7 +382,7 @@ def test_direct_and_cg_linear_solvers_agree(factor, monkeypatch):
     for name in ("direct", "cg"):
         scene = _sheet(stiff("denim", 100.0), pins=[{"corners": "top"}], damping=8.0,
                        rotation=-90.0, integrator="implicit_euler")  # fmt: skip
-        scene.solver = ImplicitEulerSolver(scene.model, linear_solver=name)
+        scene.solver = ImplicitEulerSolver(scene.model, config=ImplicitConfig(linear_solver=name))
         x, sag = _run(scene, 0.5)
         runs[name] = (x, scene.solver.stats())
     (xd, sd), (xc, sc) = runs["direct"], runs["cg"]
@@ -436,7 +439,7 @@ def test_contact_energy_gradient_and_hessian_match_finite_differences(where):
     contact force (λ = 0)."""
     s = _contact_solver(k2=60.0 if where == "slide_two_planes" else 0.0,
                         lam=0.0 if where == "free" else 0.02)  # fmt: skip
-    eps_slip = 1e-3 / 60  # FRICTION_SLIP_M_S · h
+    eps_slip = ImplicitConfig().friction_slip_m_s / 60  # ε_v · h
     x = {"stick": [0.3 * eps_slip, 0.0004, -0.2 * eps_slip],
          "slide": [0.004, 0.0002, -0.003],
          "slide_two_planes": [-0.002, 0.0005, 0.003],

@@ -322,7 +322,7 @@ def test_partial_refreshes_keep_every_pair_closer_than_the_thickness_in_the_list
 def test_rigid_impact_zones_keep_each_zones_momentum_and_move_rigidly():
     """Bridson et al. §7.4: every zone moves as one rigid body with the linear and angular
     momentum its vertices had; a zone holding a pinned vertex stands still."""
-    from sandbox.collision.self_contact import _rigid_velocities
+    from sandbox.collision.self_contact_zones import _rigid_velocities
 
     rng = np.random.default_rng(3)
     x = rng.normal(size=(30, 3))

@@ -6,6 +6,7 @@ All input checks happen before ``finalize()``, so bad input never reaches a kern
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -13,10 +14,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from sandbox import runtime
+from sandbox.collision.self_contact_config import SelfContactConfig
 from sandbox.errors import SandboxError
 from sandbox.pattern.mesh2d import mesh_grid, mesh_polygon
 from sandbox.scene.spec import ClothSpec, PinSpec, SceneSpec
 from sandbox.sim.builder import ModelBuilder
+from sandbox.sim.implicit_config import ImplicitConfig
+from sandbox.sim.integrator import Integrator
 from sandbox.sim.model import Control, Model, State
 from sandbox.sim.solver import SymplecticEulerSolver
 
@@ -38,7 +42,7 @@ class Scene:
     model: Model
     state: State
     control: Control
-    solver: SymplecticEulerSolver
+    solver: Integrator
     dt_s: float
     steps_per_frame: int
     dt_limit_s: float
@@ -188,8 +192,10 @@ def build_collider(c, collision):
     )  # fmt: skip
 
 
-def build_self_collider(model: Model, spec: SceneSpec):
-    """A SelfCollider if the scene asks for one (by default: when it has a collider)."""
+def build_self_collider(model: Model, spec: SceneSpec,
+                        config: SelfContactConfig | None = None):  # fmt: skip
+    """A SelfCollider if the scene asks for one (by default: when it has a collider), with
+    ``config``'s tunables (default: :class:`SelfContactConfig`'s)."""
     wanted = spec.collision.self_collision
     if wanted is None:
         wanted = bool(spec.colliders)
@@ -198,11 +204,17 @@ def build_self_collider(model: Model, spec: SceneSpec):
     from sandbox.collision.self_contact import SelfCollider
 
     return SelfCollider(model, thickness_m=spec.collision.thickness_m,
-                        friction=spec.collision.friction_kinetic)  # fmt: skip
+                        friction=spec.collision.friction_kinetic,
+                        config=config or SelfContactConfig())  # fmt: skip
 
 
-def build_scene(spec: SceneSpec) -> Scene:
-    """Mesh, check and allocate a scene. Initialises Taichi on the CPU if nobody did."""
+def build_scene(spec: SceneSpec, *, implicit: ImplicitConfig | None = None,
+                self_contact: SelfContactConfig | None = None) -> Scene:  # fmt: skip
+    """Mesh, check and allocate a scene. Initialises Taichi on the CPU if nobody did.
+
+    ``implicit`` and ``self_contact`` set the implicit solver's and the self-collision's
+    tunables (default: their dataclasses' defaults); the scene's ``[simulation]
+    linear_solver`` overrides ``implicit.linear_solver``."""
     builder = ModelBuilder()
     meshed = []
     for c in spec.colliders:
@@ -236,14 +248,16 @@ def build_scene(spec: SceneSpec) -> Scene:
         )  # fmt: skip
     model = builder.finalize(bending=spec.simulation.bending)
     model.colliders = [build_collider(c, spec.collision) for c in spec.colliders]
-    model.self_collider = build_self_collider(model, spec)
-    return scene_from_model(spec, model)
+    model.self_collider = build_self_collider(model, spec, self_contact)
+    return scene_from_model(spec, model, implicit)
 
 
-def scene_from_model(spec: SceneSpec, model: Model) -> Scene:
+def scene_from_model(spec: SceneSpec, model: Model,
+                     implicit: ImplicitConfig | None = None) -> Scene:  # fmt: skip
     """The runnable Scene of a finished model (colliders and self-collider set): the step
     from ``[simulation]`` (``dt_s = "auto"``: :data:`DT_SAFETY` x the stability estimate, or
-    :data:`IMPLICIT_DT_S`), a whole number of steps per frame, the control and the solver."""
+    :data:`IMPLICIT_DT_S`), a whole number of steps per frame, the control and the solver
+    (``implicit``: the implicit solver's settings)."""
     sim = spec.simulation
     frame = 1.0 / sim.frame_rate_hz
     limit = stable_dt_estimate(model)
@@ -254,7 +268,7 @@ def scene_from_model(spec: SceneSpec, model: Model) -> Scene:
     steps = max(1, math.ceil(frame / dt - 1e-9))
     dt = frame / steps  # a whole number of steps per output frame
     control = model.control(gravity=sim.gravity_m_s2, damping_per_s=sim.damping_per_s)
-    solver = make_solver(model, sim.integrator, sim.linear_solver)
+    solver = make_solver(model, sim.integrator, sim.linear_solver, implicit)
     return Scene(spec, model, model.state(), control, solver, dt, steps, limit)
 
 
@@ -266,10 +280,13 @@ def damped_step(limit_s: float, beta_s: float) -> float:
     return limit_s * (math.sqrt(1.0 + zeta * zeta) - zeta)
 
 
-def make_solver(model: Model, integrator: str, linear_solver: str = "auto"):
-    """The solver named by ``[simulation] integrator`` (and ``linear_solver``)."""
+def make_solver(model: Model, integrator: str, linear_solver: str = "auto",
+                implicit: ImplicitConfig | None = None) -> Integrator:  # fmt: skip
+    """The solver named by ``[simulation] integrator`` (and ``linear_solver``, which
+    overrides ``implicit.linear_solver``)."""
     if integrator == "implicit_euler":
         from sandbox.sim.implicit import ImplicitEulerSolver
 
-        return ImplicitEulerSolver(model, linear_solver=linear_solver)
+        config = dataclasses.replace(implicit or ImplicitConfig(), linear_solver=linear_solver)
+        return ImplicitEulerSolver(model, config=config)
     return SymplecticEulerSolver(model)

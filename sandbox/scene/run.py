@@ -71,10 +71,7 @@ def run_scene(
         log.warning("%s", dt_note)
 
     t0 = time.perf_counter()
-    if hasattr(solver, "warm_up"):  # compiles every kernel; dt = 0 changes nothing
-        solver.warm_up(scene.state, scene.control)
-    else:
-        solver.advance(scene.state, scene.control, 0.0, 1)
+    solver.warm_up(scene.state, scene.control)  # compiles every kernel; changes nothing
     monitor.reset(scene.state)
     monitor.measure(scene.state)
     compile_s = time.perf_counter() - t0
@@ -130,10 +127,9 @@ def run_scene(
         "dt_policy": "guard-adaptive" if guard.enabled else "fixed",
         **watch.metrics(),
     }
-    stats = getattr(scene.solver, "stats", None)
-    if stats is not None:  # implicit Euler: what its Newton solves cost (since the solver
-        # was made or its stats reset; a drape's include the sewing)
-        s = stats()
+    s = scene.solver.stats()
+    if s:  # implicit Euler: what its Newton solves cost (since the solver was made or its
+        # stats reset; a drape's include the sewing)
         metrics["newton"] = {key: int(s[key]) for key in (
             "steps", "newton_iterations", "unconverged_steps", "line_search_halvings",
             "factorisations")}  # fmt: skip

@@ -20,8 +20,9 @@ use the same per-element functions.
 import taichi as ti
 
 from sandbox import runtime
-from sandbox.collision.self_contact import RESOLVED
+from sandbox.collision.self_contact_config import RESOLVED
 from sandbox.sim import forces
+from sandbox.sim.integrator import ContactFriction, read_friction, write_friction
 from sandbox.sim.model import Control, Model, State  # noqa: F401 (used in annotations)
 
 # On the CPU, up to this many particles ``advance`` fuses steps into one serial kernel
@@ -36,7 +37,9 @@ NO_STEP = 2**31 - 1
 
 @ti.data_oriented
 class SymplecticEulerSolver:
-    """Explicit cloth solver; owns its per-element force slots and the NaN watch."""
+    """Explicit cloth solver; owns its per-element force slots and the NaN watch.
+
+    Implements :class:`~sandbox.sim.integrator.Integrator`."""
 
     def __init__(self, model: Model):
         self.model = model
@@ -63,9 +66,7 @@ class SymplecticEulerSolver:
             self.face_count = ti.field(ti.i32, shape=max(1, model.particle_count))
         self.speed_limit = ti.field(float, shape=())
         """Largest speed [m/s] a particle keeps after its velocity update (0: no limit, the
-        default, the paper's scheme). Not physics: the sewing phase sets it
-        (``sandbox.scene.drape.SEW_SPEED_LIMIT_M_S``) so that a seam closing across
-        centimetres cannot fling a stiff panel."""
+        default, the paper's scheme); set by :meth:`set_speed_limit`."""
         self.bad_step = ti.field(ti.i32, shape=())
         self.bad_vertex = ti.field(ti.i32, shape=())
         self.energy = ti.field(ti.f64, shape=())
@@ -123,6 +124,25 @@ class SymplecticEulerSolver:
         """(step, vertex) of the first non-finite position since the last reset, or None."""
         s = int(self.bad_step[None])
         return None if s == NO_STEP else (s, int(self.bad_vertex[None]))
+
+    def stats(self) -> dict:
+        """No counters: an explicit step has no iterations to count."""
+        return {}
+
+    def reset_stats(self) -> None:
+        """Nothing to reset (see :meth:`stats`)."""
+
+    def set_speed_limit(self, limit_m_s: float) -> None:
+        """Cap each particle's speed after its velocity update at ``limit_m_s`` [m/s] (0: no
+        cap). Not physics: the sewing phase sets it so that a seam closing across
+        centimetres cannot fling a stiff panel in one explicit step."""
+        self.speed_limit[None] = limit_m_s
+
+    def friction(self) -> ContactFriction:
+        return read_friction(self.model, self.self_collider)
+
+    def set_friction(self, friction: ContactFriction) -> None:
+        write_friction(self.model, self.self_collider, friction)
 
     def compute_forces(self, state: State, control: Control):
         """F(t_n) [N] per particle, numpy (n, 3): internal + gravity + damping forces."""

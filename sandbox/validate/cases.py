@@ -100,7 +100,7 @@ def _finish(case, integrator, h, scene, result, failure, error, of, params, extr
         outcome = "wall limit"
     elif m["guard_fired"]:
         outcome = "guarded"
-    stats = scene.solver.stats() if hasattr(scene.solver, "stats") else None
+    stats = scene.solver.stats()
     newton = cg = None
     if stats and stats["steps"]:
         newton = stats["newton_iterations"] / stats["steps"]

@@ -1,0 +1,221 @@
+"""Body contact in the implicit step's energy: contact planes, penalty, friction, lift-out.
+
+At the start of a step each vertex near a body gets the plane of its nearest body face and,
+in a concave crease, a second one (``BodyCollider.contact_planes``), and E gains a penalty
+½ k φ² where φ = n·x − offset < 0 (inside the thickness) and a smoothed Coulomb friction
+μ λ f(|u|) on the step's tangential motion u (Li et al. 2020, IPC's friction potential;
+λ the penalty's force at the current Newton iterate, held during its line search). The
+planes stay fixed during the step. In the solve, cloth slides along the body: a seam pulled
+around the neck closes instead of stopping where its straight path enters the body.
+
+A mixin of :class:`sandbox.sim.implicit.ImplicitEulerSolver`: it works on the solver's
+fields (``c_*``, ``x``, ``x0``, ``xh``) and reads its settings from ``self.config``
+(:class:`~sandbox.sim.implicit_config.ImplicitConfig`).
+"""
+
+import taichi as ti
+
+from sandbox.sim.implicit_config import REAL
+
+
+class BodyContact:
+    """Contact planes, their penalty and friction terms, and the lift out of the body."""
+
+    @ti.kernel
+    def _contact_planes(self):
+        """Each free vertex's contact planes for the step (``BodyCollider.contact_planes``:
+        the nearest body face's and, in a crease, a second) within ``contact_reach_m`` +
+        2|x̂ − x_n| of x_n, from the collider whose nearest face is closest; or none."""
+        m = self.model
+        h = self.h[None]
+        for i in range(m.particle_count):
+            self.c_k[i] = 0.0
+            self.c_k2[i] = 0.0
+            if m.particle_inv_mass[i] > 0.0:
+                xs = ti.cast(self.x0[i], float)
+                reach = ti.cast(
+                    self.config.contact_reach_m + 2.0 * (self.xh[i] - self.x0[i]).norm(), float
+                )
+                best = ti.cast(1e30, float)
+                for c in ti.static(m.colliders):
+                    count, n, o, n2, o2 = c.contact_planes(xs, reach)
+                    if count > 0 and n.dot(xs) - o < best:
+                        best = n.dot(xs) - o
+                        k = self.config.contact_stiffness * m.particle_mass[i] / (h * h)
+                        # a vertex that starts inside the thickness may not go deeper this
+                        # step, but is not pushed out by the penalty either (no shock from
+                        # a stiff penalty): the contact response after the solve does that,
+                        # and _lift_out for a vertex that starts inside the body
+                        self.c_n[i] = ti.cast(n, REAL)
+                        self.c_o[i] = ti.min(ti.cast(o, REAL), self.c_n[i].dot(self.x0[i]))
+                        self.c_n2[i] = ti.cast(n2, REAL)
+                        self.c_o2[i] = ti.min(ti.cast(o2, REAL), self.c_n2[i].dot(self.x0[i]))
+                        self.c_t[i] = ti.cast(o, REAL)
+                        self.c_t2[i] = ti.cast(o2, REAL)
+                        # behind the face itself (o includes the thickness)
+                        self.c_in[i] = 1 if best < -c.thickness[None] else 0
+                        self.c_mu[i] = ti.cast(c.mu_s[None], REAL)
+                        self.c_k[i] = k
+                        self.c_k2[i] = k if count == 2 else 0.0
+            if self.c_k[i] == 0.0:
+                self.c_lam[i] = 0.0
+                self.c_in[i] = 0
+            if (self.x0[i] - self.x_end[i]).norm() > 0.0:  # not where the last step left it
+                self.c_lam[i] = 0.0
+            self.c_new[i] = 1 if self.c_lam[i] == 0.0 else 0
+
+    @ti.func
+    def _contact_terms(self, i, xi):
+        """Body contact of free vertex i at xi: (energy [J], gradient [N], PSD Hessian [N/m]).
+
+        With the step's plane (n, offset) and φ = n·x − offset (< 0: inside the thickness),
+        the penalty ½ k φ² (k = ``contact_stiffness`` m/h²), and friction μ λ f(|u|) on the
+        tangential motion u = (I − n nᵀ)(x − x_n), with λ [N] the penalty's force at the
+        end of the step before, held for the whole step (so that Newton minimises one
+        energy), or, for a contact that had none then (``c_new``), at each Newton iterate
+        (:meth:`_update_contact_force`, held during a line search); and
+        f(s) = s²/(2ε) below ε = ``friction_slip_m_s``·h, s − ε/2 above: a force μ λ u/ε while
+        sticking, μ λ û (Coulomb) while sliding. Both terms are convex in x.
+        """
+        e = ti.cast(0.0, REAL)
+        g = ti.Vector.zero(REAL, 3)
+        hess = ti.Matrix.zero(REAL, 3, 3)
+        k = self.c_k[i]
+        if k > 0.0:
+            k2 = self.c_k2[i]  # the second plane of a crease (0: none)
+            n2 = self.c_n2[i]
+            phi2 = n2.dot(xi) - self.c_o2[i]
+            if phi2 < 0.0:
+                e += 0.5 * k2 * phi2 * phi2
+                g += k2 * phi2 * n2
+            if phi2 < self.config.plane_band_m:  # on the plane too (a vertex stopped there)
+                hess += k2 * n2.outer_product(n2)
+            n = self.c_n[i]
+            nn = n.outer_product(n)
+            phi = n.dot(xi) - self.c_o[i]
+            if phi < 0.0:
+                e += 0.5 * k * phi * phi
+                g += k * phi * n
+            if phi < self.config.plane_band_m:
+                hess += k * nn
+            f = self.c_mu[i] * self.c_lam[i]
+            if f > 0.0:
+                u = xi - self.x0[i]
+                u -= n.dot(u) * n
+                eps = self.config.friction_slip_m_s * self.h[None]
+                s = u.norm()
+                tangent = ti.Matrix.identity(REAL, 3) - nn
+                if s < eps:
+                    e += f * s * s / (2.0 * eps)
+                    g += f / eps * u
+                    hess += f / eps * tangent
+                else:
+                    e += f * (s - 0.5 * eps)
+                    g += f / s * u
+                    hess += f / s * (tangent - (u / s).outer_product(u / s))
+        return e, g, hess
+
+    @ti.func
+    def _update_contact_force(self, i, xi):
+        """λ_i := the penalty's normal force at xi [N] (both planes), for the friction."""
+        phi = self.c_n[i].dot(xi) - self.c_o[i]
+        phi2 = self.c_n2[i].dot(xi) - self.c_o2[i]
+        self.c_lam[i] = self.c_k[i] * ti.max(-phi, 0.0) + self.c_k2[i] * ti.max(-phi2, 0.0)
+
+    @ti.func
+    def _stop_at_planes(self, i, d):
+        """Vertex i's step d [m], changed so that it ends on a contact plane that it would
+        otherwise pass through from in front (farther than ``plane_band_m``): the part of the
+        step beyond the plane is taken off along the plane's normal, so the vertex keeps
+        its motion along the plane. Where that would put it behind a crease's other plane,
+        the step is shortened instead, to end on the first plane it meets.
+
+        The penalty has no stiffness in front of its plane, so Newton's step does not see
+        it coming: without this, one vertex carried deep into the penalty made the line
+        search halve the step of the whole garment, 2-3 times per iteration while a garment
+        settles on the body. On the plane, the vertex has the penalty's stiffness in the
+        next iteration (``plane_band_m``) and finds its depth by Newton's method.
+        """
+        out = d
+        if self.c_k[i] > 0.0:
+            xi = self.x[i]
+            n = self.c_n[i]
+            phi = n.dot(xi) - self.c_o[i]
+            t = ti.cast(1.0, REAL)  # the shortened step, for a crease
+            if phi > self.config.plane_band_m and phi + n.dot(d) < 0.0:
+                out -= (phi + n.dot(d)) * n
+                t = phi / (-n.dot(d))
+            if self.c_k2[i] > 0.0:
+                n2 = self.c_n2[i]
+                phi2 = n2.dot(xi) - self.c_o2[i]
+                if phi2 > self.config.plane_band_m and phi2 + n2.dot(out) < 0.0:
+                    if phi2 + n2.dot(d) < 0.0:
+                        t = ti.min(t, phi2 / (-n2.dot(d)))
+                    out -= (phi2 + n2.dot(out)) * n2
+                    band = ti.static(self.config.plane_band_m)
+                    if phi > band and phi + n.dot(out) < -band:
+                        out = t * d  # back behind the first plane: stop at the first
+        return out
+
+    @ti.func
+    def _lift_out(self, i, xi):
+        """xi moved in front of its contact planes if vertex i started the step inside the
+        body; ``c_push[i]`` := the outward velocity [m/s] that the way out added beyond the
+        vertex's own (its start velocity's).
+
+        The penalty's plane holds such a vertex where it starts, and the response after the
+        solve only acts within the thickness: a vertex that the self-collision pass pushed
+        2.9 mm into the sleeveless blouse's armpit sank to 13.6 mm (each step's plane began
+        where the membrane's pull had left it). Nor can the penalty pull it out: at 3 cm the
+        membrane pulling a vertex across the armpit is stiffer than m/h² x
+        ``contact_stiffness``; with planes that asked such vertices out at 0.1 m/s two of them
+        stayed 12.7 mm inside (3 Dec 2026). Only vertices that start inside the body are lifted,
+        so a vertex sliding off the edge of its face's plane is not. The way out moves the
+        vertex but is not kept as velocity (``_drift``): no launch, as in the explicit
+        solver's ``respond_split``.
+        """
+        push = ti.Vector.zero(REAL, 3)
+        if self.c_in[i]:
+            xi = self._front_of_planes(i, xi)
+            h = self.h[None]
+            n = self.c_n[i]
+            own = ti.max((self.xh[i] - self.x0[i]).dot(n) / h, 0.0)
+            out = (xi - self.x0[i]).dot(n) / h - own
+            if out > 0.0:
+                push = out * n
+        self.c_push[i] = push
+        return xi
+
+    @ti.func
+    def _front_of_planes(self, i, x):
+        """A point in front of vertex i's contact planes (n·y >= offset for both), near x:
+        x itself, else its projection on plane 1, else on plane 2, else the point of the
+        line where both meet that is nearest to x (both only at ``lift_min_sin2``, and no
+        move longer than ``lift_max_m``)."""
+        n1, t1 = self.c_n[i], self.c_t[i]
+        n2, t2 = self.c_n2[i], self.c_t2[i]
+        two = self.c_k2[i] > 0.0
+        p1 = n1.dot(x) - t1
+        p2 = n2.dot(x) - t2 if two else ti.cast(0.0, REAL)
+        y = x
+        if p1 < 0.0 or p2 < 0.0:
+            y1 = x - ti.min(p1, 0.0) * n1  # plane 1 only
+            y2 = x - ti.min(p2, 0.0) * n2  # plane 2 only
+            ok1 = (not two) or n2.dot(y1) - t2 >= -1e-12
+            ok2 = n1.dot(y2) - t1 >= -1e-12
+            if p1 < 0.0 and ok1:
+                y = y1
+            elif p2 < 0.0 and ok2:
+                y = y2
+            else:  # both active: y = x + a n1 + b n2 on both planes
+                c = n1.dot(n2)
+                det = 1.0 - c * c
+                y = y1
+                if det > self.config.lift_min_sin2:
+                    a = (-p1 + c * p2) / det
+                    b = (-p2 + c * p1) / det
+                    y = x + a * n1 + b * n2
+            # a plane far off (a thin part's other side)
+            if (y - x).norm() > self.config.lift_max_m:
+                y = x
+        return y
