@@ -203,7 +203,7 @@ def config_dict(config) -> dict:
     out = {}
     for f in fields(config):
         value = getattr(config, f.name)
-        out[f.name] = config_dict(value) if hasattr(value, "__dataclass_fields__") else value
+        out[f.name] = config_dict(value) if dataclasses.is_dataclass(value) else value
     return out
 
 

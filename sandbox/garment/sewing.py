@@ -29,21 +29,14 @@ class _SewingSettings:
         from sandbox import runtime
 
         scene, config = self.scene, self.config
-        model, solver, control = scene.model, scene.solver, scene.control
+        solver, control = scene.solver, scene.control
         self.gravity = control.gravity[None]
         control.gravity[None] = [float(self.gravity_fraction) * float(g) for g in self.gravity]
         self.self_collider = solver.self_collider
-        solver.set_speed_limit(config.speed_limit_m_s)
-        self.mu = [(c.mu_s, c.mu_k) for c in model.colliders]
-        self.mu_saved = [(a[None], b[None]) for a, b in self.mu]
-        self.mu_self = self.self_collider.mu if self.self_collider is not None else None
-        self.mu_self_saved = self.mu_self[None] if self.mu_self is not None else None
+        self.friction = solver.friction()
+        solver.set_speed_limit(config.speed_limit_m_s)  # the implicit solver needs none
         if scene.spec.simulation.integrator == "implicit_euler":
-            friction = config.friction_implicit
-            for a, b in self.mu:
-                a[None] = b[None] = friction
-            if self.mu_self is not None:
-                self.mu_self[None] = friction
+            solver.set_friction(self.friction.uniform(config.friction_implicit))
         if not self.self_collision:
             solver.self_collider = None  # the solver runs the fused step without its passes
         self.k_final = scene.model.seam_stiffness_np.astype(runtime.float_dtype())
@@ -53,12 +46,9 @@ class _SewingSettings:
         scene = self.scene
         scene.model.set_seam_stiffness(self.k_final)
         scene.control.gravity[None] = self.gravity
-        scene.solver.self_collider = self.self_collider
+        scene.solver.self_collider = self.self_collider  # first: the cloth's μ is its own
         scene.solver.set_speed_limit(0.0)
-        for (a, b), (sa, sb) in zip(self.mu, self.mu_saved, strict=True):
-            a[None], b[None] = sa, sb
-        if self.mu_self is not None:
-            self.mu_self[None] = self.mu_self_saved
+        scene.solver.set_friction(self.friction)
         return False
 
 
