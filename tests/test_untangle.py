@@ -117,7 +117,7 @@ def test_a_drape_ending_tangled_is_untangled_and_settled_with_the_seam_zone_narr
     import dataclasses
     from types import SimpleNamespace
 
-    import sandbox.garment.drape as drape_mod
+    import sandbox.garment.pipeline as drape_mod
     import sandbox.garment.repair as repair_mod
     import sandbox.scene.run as run_mod
     from sandbox.garment import DrapeConfig

@@ -15,10 +15,10 @@ from sandbox.garment.config import (
     SewingConfig,
     default_edge_m,
 )
-from sandbox.garment.drape import DrapeResult, drape, run_drape
 from sandbox.garment.inputs import check_garment, garment_names, make_mannequin, resolve_pattern
 from sandbox.garment.metrics import drape_metrics, meets_acceptance
 from sandbox.garment.output import write_drape
+from sandbox.garment.pipeline import DrapeResult, drape, run_drape
 
 __all__ = [
     "AcceptanceConfig",

@@ -1,4 +1,4 @@
-"""Drape a garment on the mannequin (paper §2.3-2.5 and Fig. 7), from start to files.
+"""The drape pipeline: a garment on the mannequin (paper §2.3-2.5 and Fig. 7), from start to files.
 
 pattern + mannequin -> :func:`~sandbox.garment.build.build_drape` (mesh, place, seams) ->
 :func:`~sandbox.garment.sewing.sew` -> :func:`~sandbox.garment.repair.untangle_state` ->
