@@ -5,6 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from sandbox import drafting
 from sandbox.collision.metrics import body_inside_check, count_intersections_between
 from sandbox.errors import SandboxError
 from sandbox.mannequin import build_mannequin
@@ -79,7 +80,6 @@ def test_arc_length_is_kept_across_the_panel(body):
 
 
 def test_library_garments_start_outside_the_body(body):
-    drafting = pytest.importorskip("sandbox.drafting")
     m, _, _ = body
     for name in drafting.garment_names():
         pattern = load_pattern(drafting.draft(name, m.measurements_requested, mannequin=m),
