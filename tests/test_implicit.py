@@ -231,6 +231,7 @@ def stiff(preset: str, factor: float) -> dict:
     }
 
 
+@pytest.mark.slow
 def test_free_fall_is_exact():
     scene = _sheet("denim", pins=[], velocity=(0.3, 1.0, -0.2), integrator="implicit_euler")
     x0 = scene.state.positions()
@@ -270,6 +271,7 @@ def _run(scene, seconds):
     return x, np.array(sags)
 
 
+@pytest.mark.slow
 def test_stiff_sheet_at_frame_steps_matches_a_fine_step_explicit_reference():
     # denim with stretch and shear x100, 30 x 30 cm, starts flat and horizontal, hangs from
     # two corners; damping 8/s (both solvers) so that both settle within 3 s
@@ -299,6 +301,7 @@ def test_stiff_sheet_at_frame_steps_matches_a_fine_step_explicit_reference():
     assert abs(first(sag) - first(sag_ref)) <= 2
 
 
+@pytest.mark.slow
 def test_matrix_free_product_is_symmetric():
     scene = _sheet(stiff("denim", 10.0), pins=[{"corners": "top"}], integrator="implicit_euler")
     s = scene.solver
@@ -327,6 +330,7 @@ def test_scene_picks_the_integrator():
         scene_from_dict(data, source="t.toml")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seams", [False, True])
 def test_assembled_matrix_equals_the_matrix_free_product(seams):
     scene = _sheet(stiff("denim", 10.0), pins=[{"corners": "top"}], integrator="implicit_euler")
