@@ -23,6 +23,7 @@ def kinetic(scene):
     return 0.5 * float(np.sum(scene.model.mass_np[:, None] * v * v))
 
 
+@pytest.mark.slow
 def test_free_flight_conserves_linear_momentum():
     scene = free_sheet(velocity_m_s=[0.3, -0.1, 0.2])
     rng = np.random.default_rng(3)
@@ -38,6 +39,7 @@ def test_free_flight_conserves_linear_momentum():
     assert np.isfinite(scene.state.positions()).all()
 
 
+@pytest.mark.slow
 def test_undamped_oscillation_keeps_its_energy_bounded():
     """Symplectic Euler: energy oscillates around its initial value and does not drift."""
     scene = free_sheet(material="denim")

@@ -64,6 +64,7 @@ def test_an_unrecoverable_run_stops_with_step_vertex_and_reason():
     assert np.abs(x - x0).max() < 0.5
 
 
+@pytest.mark.slow
 def test_run_scene_turns_an_unrecoverable_run_into_simulation_diverged():
     scene = _sheet(400.0)
     with pytest.raises(SimulationDiverged, match=r"step \d+ near vertex \d+"):

@@ -373,6 +373,7 @@ def _with_seams(scene):
     return m
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("factor", ["banded", "superlu"])
 def test_direct_and_cg_linear_solvers_agree(factor, monkeypatch):
     from sandbox.sim import sparse
@@ -462,6 +463,7 @@ def test_contact_energy_gradient_and_hessian_match_finite_differences(where):
     assert _psd(h)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mu", [0.2, 0.7])
 def test_implicit_friction_on_the_incline_follows_coulomb(mu, monkeypatch):
     """A square on a 30° plane at 1/240 s: with μ = 0.2 < tan 30° it slides with

@@ -79,6 +79,7 @@ def test_arc_length_is_kept_across_the_panel(body):
     assert length == pytest.approx(0.4, rel=0.01)
 
 
+@pytest.mark.slow
 def test_library_garments_start_outside_the_body(body):
     m, _, _ = body
     for name in drafting.garment_names():
@@ -175,6 +176,7 @@ def test_wrapped_panels_start_less_stretched_and_no_more_crossed(monkeypatch):
     assert place._crossings(relaxed, meshes) <= place._crossings(raw, meshes)
 
 
+@pytest.mark.slow
 def test_sleeved_top_starts_without_crossings_at_a_fine_mesh(monkeypatch):
     """At 1 cm the push-out folds the T-shirt's sleeve caps through themselves in the armpit
     (74 crossing pairs before :func:`untangle`); placed, the garment starts with none,
