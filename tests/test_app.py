@@ -96,6 +96,7 @@ def test_saved_pattern_holds_the_seams_sewn_here(session, tmp_path):
     session.clear_seams()
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not _vulkan_ok(), reason="GGUI needs Vulkan (libvulkan1, mesa-vulkan-drivers)")
 def test_offscreen_script_renders_sews_by_clicks_and_resizes(tmp_path):
     import subprocess
@@ -166,6 +167,7 @@ def _wait_status(path, proc, check, timeout=240.0):
     raise AssertionError(f"the window's status never satisfied the check ({path})")
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(
     shutil.which("Xvfb") is None or shutil.which("xdotool") is None or not _vulkan_ok(),
     reason="needs Xvfb, xdotool and Vulkan (CI installs xvfb, xdotool, mesa-vulkan-drivers)",

@@ -21,6 +21,7 @@ def test_astm_angle_is_the_exact_elastica_angle_at_lambda_8():
     assert chord_angle_deg(*tip(8.0)) == pytest.approx(41.487, abs=1e-3)
 
 
+@pytest.mark.slow
 def test_cantilever_lambda_8_gives_the_astm_chord_angle():
     """λ = 8 (c = l/2): the chord makes 41.5° with the horizontal, within 0.5°."""
     run = run_cantilever(8.0, 0.0025)
@@ -29,6 +30,7 @@ def test_cantilever_lambda_8_gives_the_astm_chord_angle():
     assert run.tip_error_pct_L < 1.0
 
 
+@pytest.mark.slow
 def test_cantilever_error_falls_with_the_mesh_size():
     coarse = run_cantilever(4.0, 0.005)
     fine = run_cantilever(4.0, 0.0025)

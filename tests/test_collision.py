@@ -25,6 +25,7 @@ def scene(cloth: dict, colliders: list, **tables):
     return build_scene(scene_from_dict(data, source="collision_test.toml"))
 
 
+@pytest.mark.slow
 def test_sheet_dropped_on_a_sphere_stays_outside():
     sc = scene(
         {"size_m": [0.5, 0.5], "origin_m": [-0.25, 0.3, 0.25], "rotation_deg": [-90, 0, 0]},
@@ -41,6 +42,7 @@ def test_sheet_dropped_on_a_sphere_stays_outside():
     assert 0.2 < top[1] < 0.2 + 0.01  # the sheet rests on the sphere, not above or in it
 
 
+@pytest.mark.slow
 def test_sheet_dropped_on_the_edge_of_a_box_stays_outside():
     sc = scene(
         {"size_m": [0.4, 0.4], "origin_m": [-0.1, 0.25, 0.2], "rotation_deg": [-90, 0, 0]},
@@ -61,6 +63,7 @@ def test_sheet_dropped_on_the_edge_of_a_box_stays_outside():
     assert r.metrics["intersecting_triangle_pairs"] == 0
 
 
+@pytest.mark.slow
 def test_sheet_thrown_fast_at_a_thin_cylinder_does_not_pass_through():
     """10 m/s against an arm-sized cylinder (r = 3 cm) with a large time step."""
     sc = scene(
@@ -115,6 +118,7 @@ def test_sheet_thrown_fast_at_a_thin_cylinder_does_not_pass_through():
     assert count_intersecting_pairs(x, sc.model.tri_indices_np) == 0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("angle_deg, mu", [(15.0, 0.4), (30.0, 0.2), (40.0, 0.3)])
 def test_square_on_an_inclined_plane_sticks_or_slides_with_coulomb_friction(angle_deg, mu):
     alpha = math.radians(angle_deg)
@@ -160,30 +164,37 @@ def test_square_on_an_inclined_plane_sticks_or_slides_with_coulomb_friction(angl
     assert count_intersecting_pairs(sc.state.positions(), sc.model.tri_indices_np) == 0
 
 
-def test_mesh_file_collider_and_a_missing_file(tmp_path):
-    import trimesh
-
-    from sandbox.errors import SandboxError
-
-    trimesh.creation.icosphere(subdivisions=3, radius=0.15).export(tmp_path / "ball.ply")
-    data = {
+def _mesh_collider_scene(path: str) -> dict:
+    return {
         "scene": {"name": "mesh_collider"},
         "stop": {"time_limit_s": 0.6},
         "cloth": [{"name": "sheet", "size_m": [0.4, 0.4], "edge_length_m": 0.025,
                    "material": "jersey", "origin_m": [-0.2, 0.2, 0.2],
                    "rotation_deg": [-90, 0, 0]}],
-        "collider": [{"name": "ball", "shape": "mesh", "path": "ball.ply"}],
+        "collider": [{"name": "ball", "shape": "mesh", "path": path}],
     }  # fmt: skip
-    spec = scene_from_dict(data, source=str(tmp_path / "scene.toml"))
+
+
+@pytest.mark.slow
+def test_mesh_file_collider_holds_a_sheet_outside(tmp_path):
+    import trimesh
+
+    trimesh.creation.icosphere(subdivisions=3, radius=0.15).export(tmp_path / "ball.ply")
+    spec = scene_from_dict(_mesh_collider_scene("ball.ply"), source=str(tmp_path / "scene.toml"))
     sc = build_scene(spec)
     assert sc.model.colliders[0].closed
     r = run_scene(sc, progress=False)
     assert (np.linalg.norm(r.positions, axis=1) < 0.15 * 0.99).sum() == 0
-    data["collider"][0]["path"] = "nothere.obj"
+
+
+def test_a_missing_collider_mesh_file_is_refused(tmp_path):
+    from sandbox.errors import SandboxError
+
     with pytest.raises(SandboxError, match="no such file"):
-        scene_from_dict(data, source=str(tmp_path / "scene.toml"))
+        scene_from_dict(_mesh_collider_scene("nothere.obj"), source=str(tmp_path / "scene.toml"))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("faces", [False, True])
 def test_a_coarse_sheet_over_a_small_ball_hides_it_with_the_face_pass(faces):
     """A 4 cm mesh over an r = 6 cm ball: the triangles span the curvature. Without the face
@@ -211,6 +222,7 @@ def test_a_coarse_sheet_over_a_small_ball_hides_it_with_the_face_pass(faces):
         assert through > 50
 
 
+@pytest.mark.slow
 def test_a_vertex_inside_the_thickness_is_moved_out_but_not_launched():
     """Restoring the thickness moves a vertex; it does not become velocity. A sheet laid
     1.5 mm above a box (thickness 3 mm) at dt = 10 µs, no gravity: the old response kept the
@@ -228,6 +240,7 @@ def test_a_vertex_inside_the_thickness_is_moved_out_but_not_launched():
     assert np.allclose(sc.state.positions()[:, 1], 0.003, atol=1e-4)
 
 
+@pytest.mark.slow
 def test_implicit_lifts_a_sheet_that_starts_inside_the_body_without_launching_it():
     """A vertex deeper than the thickness inside a body was left there by the implicit step
     (the penalty's plane held it where it started, the response only acts within the
@@ -250,6 +263,7 @@ def test_implicit_lifts_a_sheet_that_starts_inside_the_body_without_launching_it
     assert np.allclose(sc.state.positions()[:, 1], 0.003, atol=1e-4)
 
 
+@pytest.mark.slow
 def test_implicit_newton_settles_a_sheet_on_a_sphere_without_line_search_halvings():
     """A vertex in front of its contact plane has no penalty stiffness in the Newton matrix,
     so Newton's step carried it into the penalty and the line search halved the whole
@@ -273,6 +287,7 @@ def test_implicit_newton_settles_a_sheet_on_a_sphere_without_line_search_halving
     assert radius.min() > 0.2  # on the sphere, not in it
 
 
+@pytest.mark.slow
 def test_implicit_friction_holds_the_normal_force_only_for_a_state_it_continues():
     """The friction's normal force λ is the one from the end of the step before, held for
     the step. A state that does not continue the last step (a reset, vertices moved by
@@ -294,6 +309,7 @@ def test_implicit_friction_holds_the_normal_force_only_for_a_state_it_continues(
     assert solver.c_new.to_numpy()[in_contact].min() == 1  # not held
 
 
+@pytest.mark.slow
 def test_the_body_grid_lists_each_cells_triangles_in_order():
     """The grid is filled in parallel (any order); a vertex equally close to two triangles
     takes the first one's normal, so each cell's list is sorted to make runs repeatable.

@@ -25,6 +25,7 @@ from sandbox.drafting.geometry import (
 )
 from sandbox.errors import SandboxError
 from sandbox.mannequin.measurements import load_size_table, size_entry
+from sandbox.pattern import spec
 
 SIZES = [e.size for e in load_size_table()]
 NAMES = garment_names()
@@ -236,7 +237,6 @@ def test_panels_face_the_right_way_and_are_placed(name):
 
 
 def test_every_pattern_loads():
-    spec = pytest.importorskip("sandbox.pattern.spec", reason="pattern loader not written yet")
     for name in NAMES:
         for size in (SIZES[0], 12, SIZES[-1]):
             pat = spec.load_pattern(drafted(name, size), where=f"{name} size {size}")
@@ -259,7 +259,6 @@ def test_mannequin_landmarks_give_the_heights():
         assert getattr(b, key) == pytest.approx(getattr(a, key), rel=0.1), key
     lm = man.landmarks
     assert b.waist_to_hip == pytest.approx(100 * (lm["waist_front"][1] - lm["hip_front"][1]))
-    spec = pytest.importorskip("sandbox.pattern.spec")
     for name in ("t-shirt", "camisole", "pencil-skirt"):
         d = draft(name, m, mannequin=man)
         spec.load_pattern(d)

@@ -32,6 +32,7 @@ def skirt_run(mannequin, tmp_path_factory):
     return res, out
 
 
+@pytest.mark.slow
 def test_skirt_drapes_closed_outside_and_with_ease(skirt_run):
     res, _ = skirt_run
     m = res.metrics
@@ -50,6 +51,7 @@ def test_skirt_drapes_closed_outside_and_with_ease(skirt_run):
     assert x[:, 1].max() > hip_y + 0.1
 
 
+@pytest.mark.slow
 def test_drape_outputs(skirt_run):
     res, out = skirt_run
     for name in ("garment.obj", "garment.ply", "body.obj", "render.png", "render_back.png",
@@ -66,6 +68,7 @@ def test_drape_outputs(skirt_run):
     assert text.count("\nvt ") == res.scene.model.particle_count
 
 
+@pytest.mark.slow
 def test_sewing_hands_back_the_scene_as_it_found_it(skirt_run):
     """The sewing phase's speed limit is lifted and the body's friction is the scene's."""
     res, _ = skirt_run
@@ -96,6 +99,7 @@ def test_ease_of_a_cylinder(mannequin):
     assert e["ease_bust_cm"] is None and e["ease_waist_cm"] is None
 
 
+@pytest.mark.slow
 def test_build_drape_top(mannequin):
     pattern = load_pattern(DATA / "drape_top.json")
     scene = build_drape(
@@ -128,6 +132,7 @@ def test_cli_list_and_errors(capsys, tmp_path):
                  "--edge-cm", "0"]) == 2  # fmt: skip
 
 
+@pytest.mark.slow
 def test_implicit_drape_sews_and_drapes_the_tube_skirt(mannequin, tmp_path):
     """The implicit integrator runs the whole drape (sewing, self-collision, body contact)."""
     res = drape(DATA / "drape_skirt.json", mannequin=mannequin, out_dir=tmp_path,
@@ -171,6 +176,7 @@ def test_implicit_drape_on_a_fine_mesh_warns():
     assert implicit_mesh_warning("symplectic_euler", 0.01) is None
 
 
+@pytest.mark.slow
 def test_the_seam_exclusion_narrows_to_the_partners(skirt_run):
     """Self-collision leaves out a vertex's seam partners (and their partners, for junctions
     of three panels) with their mesh neighbours (the default, so seams can close), or only
@@ -198,6 +204,7 @@ def test_the_seam_exclusion_narrows_to_the_partners(skirt_run):
         collider.set_seam_partners(pairs)
 
 
+@pytest.mark.slow
 def test_implicit_sewing_ends_each_frame_at_rest_so_the_circle_skirt_closes(mannequin):
     """The 3 cm circle skirt is placed with 10-13 cm seam gaps. Backward Euler kept the
     seams' pull as momentum: 3 m/s in the second frame, the hem swung up between the legs

@@ -23,6 +23,7 @@ def kinetic(scene):
     return 0.5 * float(np.sum(scene.model.mass_np[:, None] * v * v))
 
 
+@pytest.mark.slow
 def test_free_flight_conserves_linear_momentum():
     scene = free_sheet(velocity_m_s=[0.3, -0.1, 0.2])
     rng = np.random.default_rng(3)
@@ -38,6 +39,7 @@ def test_free_flight_conserves_linear_momentum():
     assert np.isfinite(scene.state.positions()).all()
 
 
+@pytest.mark.slow
 def test_undamped_oscillation_keeps_its_energy_bounded():
     """Symplectic Euler: energy oscillates around its initial value and does not drift."""
     scene = free_sheet(material="denim")
@@ -70,6 +72,7 @@ def test_speed_limit_caps_every_particle_and_is_off_by_default():
     np.testing.assert_allclose(moved, 0.5 * 10 * scene.dt_s, rtol=1e-6)
 
 
+@pytest.mark.slow
 def test_parallel_step_and_fused_advance_agree():
     a = build_scene(sheet_spec())
     b = build_scene(sheet_spec())
@@ -88,6 +91,7 @@ def test_step_writes_into_a_separate_state():
     assert np.abs(out.velocities()[free, 1]).max() > 0  # gravity acted
 
 
+@pytest.mark.slow
 def test_stop_rule_fires_on_a_settled_sheet_and_not_on_a_swinging_one():
     settled = run_scene(build_scene(sheet_spec(stop={"time_limit_s": 10.0})), progress=False)
     assert settled.converged and settled.reason == "stop rule"
@@ -115,6 +119,7 @@ def test_stop_rule_is_measured_over_a_frame_not_a_step():
     assert not rule.update(2e-3, 1e-5)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("limit", [0, 10**9])
 def test_both_launch_paths_run_a_scene(monkeypatch, limit):
     monkeypatch.setattr(solver_mod, "FUSED_PARTICLE_LIMIT", limit)

@@ -34,6 +34,7 @@ def mannequin():
     return build_mannequin(size=12)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(GARMENTS))
 def test_library_garment_meets_the_acceptance_on_a_coarse_mesh(name, mannequin, tmp_path):
     edge, hangs_from = GARMENTS[name]
@@ -171,6 +172,7 @@ def test_the_gallery_reads_back_drapes_already_written_with_the_same_settings(tm
     assert earlier_drape(folder, "tank-top", 12, 0.01) is None  # edge not recorded: draped again
 
 
+@pytest.mark.slow
 def test_the_gallery_drapes_in_parallel_processes_and_reads_them_back(tmp_path):
     """``gallery --quick --jobs 2`` on two garments: two ``python -m sandbox drape``
     processes, their renders and metrics read back into one table, no meshes written."""

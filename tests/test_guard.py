@@ -16,6 +16,7 @@ def _sheet(dt_factor: float, **stop):
     return build_scene(spec)
 
 
+@pytest.mark.slow
 def test_a_run_five_times_above_the_stable_step_is_recovered_without_nan():
     scene = _sheet(5.0)
     unguarded = _sheet(5.0)
@@ -37,6 +38,7 @@ def test_a_run_five_times_above_the_stable_step_is_recovered_without_nan():
     assert m["guard_max_strain"] < 0.05
 
 
+@pytest.mark.slow
 def test_a_stable_run_does_not_fire_the_guard():
     result = run_scene(_sheet(0.9), progress=False)
     m = result.metrics
@@ -62,6 +64,7 @@ def test_an_unrecoverable_run_stops_with_step_vertex_and_reason():
     assert np.abs(x - x0).max() < 0.5
 
 
+@pytest.mark.slow
 def test_run_scene_turns_an_unrecoverable_run_into_simulation_diverged():
     scene = _sheet(400.0)
     with pytest.raises(SimulationDiverged, match=r"step \d+ near vertex \d+"):

@@ -232,6 +232,7 @@ def stiff(preset: str, factor: float) -> dict:
     }
 
 
+@pytest.mark.slow
 def test_free_fall_is_exact():
     scene = _sheet("denim", pins=[], velocity=(0.3, 1.0, -0.2), integrator="implicit_euler")
     x0 = scene.state.positions()
@@ -271,6 +272,7 @@ def _run(scene, seconds):
     return x, np.array(sags)
 
 
+@pytest.mark.slow
 def test_stiff_sheet_at_frame_steps_matches_a_fine_step_explicit_reference():
     # denim with stretch and shear x100, 30 x 30 cm, starts flat and horizontal, hangs from
     # two corners; damping 8/s (both solvers) so that both settle within 3 s
@@ -300,6 +302,7 @@ def test_stiff_sheet_at_frame_steps_matches_a_fine_step_explicit_reference():
     assert abs(first(sag) - first(sag_ref)) <= 2
 
 
+@pytest.mark.slow
 def test_matrix_free_product_is_symmetric():
     scene = _sheet(stiff("denim", 10.0), pins=[{"corners": "top"}], integrator="implicit_euler")
     s = scene.solver
@@ -328,6 +331,7 @@ def test_scene_picks_the_integrator():
         scene_from_dict(data, source="t.toml")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seams", [False, True])
 def test_assembled_matrix_equals_the_matrix_free_product(seams):
     scene = _sheet(stiff("denim", 10.0), pins=[{"corners": "top"}], integrator="implicit_euler")
@@ -372,6 +376,7 @@ def _with_seams(scene):
     return m
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("factor", ["banded", "superlu"])
 def test_direct_and_cg_linear_solvers_agree(factor, monkeypatch):
     from sandbox.sim import sparse
@@ -461,6 +466,7 @@ def test_contact_energy_gradient_and_hessian_match_finite_differences(where):
     assert _psd(h)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mu", [0.2, 0.7])
 def test_implicit_friction_on_the_incline_follows_coulomb(mu, monkeypatch):
     """A square on a 30° plane at 1/240 s: with μ = 0.2 < tan 30° it slides with

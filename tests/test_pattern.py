@@ -612,6 +612,9 @@ def _paths(t, pre=()):
 
 def _mutations(base):
     for path in list(_paths(base)):
+        original = base
+        for k in path:
+            original = original[k]
         for value in ("<delete>", None, "x", -1, [1], {}, True, float("nan")):
             d = copy.deepcopy(base)
             t = d
@@ -621,10 +624,57 @@ def _mutations(base):
                 del t[path[-1]]
             else:
                 t[path[-1]] = value
-            yield path, value, d
+            yield path, original, value, d
+
+
+# keys a file may leave out (GarmentCode: ``null`` stands for "absent" where marked below)
+_OPTIONAL = {
+    "units",
+    "name",
+    "curve",
+    "grain",
+    "placement",
+    "body",
+    "offset",
+    "wrap",
+    "clearance",
+    "seams",
+    "direction",
+    "stiffness_N_m",
+    "translation",
+    "rotation",
+    "curvature",
+    "stitches",
+    "properties",
+    "units_in_meter",
+}
+_NULL_IS_ABSENT = {"curvature", "stitches", "properties"}
+_EMPTY_OBJECT_OK = {"placement", "properties"}
+
+
+def _verdict(path, original, value, seamed=("l",)):
+    """True: the edited file is still valid; False: it must be refused; None: a number moved
+    to -1, valid or not by the geometry it makes (a vertex crossing an edge, ...).
+    ``seamed``: the edge names a seam refers to (renaming one breaks the seam)."""
+    key = path[-1]
+    if key == "name" and value in ("<delete>", "x"):
+        return original not in seamed
+    if value == "<delete>":
+        return key in _OPTIONAL or (isinstance(key, int) and path[-2] in ("seams", "stitches"))
+    if value is None:
+        return key in _NULL_IS_ABSENT
+    if value == {}:
+        return key in _EMPTY_OBJECT_OK
+    if value is True:
+        return original is True
+    if value == -1 and isinstance(original, (int, float)) and not isinstance(original, bool):
+        return None
+    return False
 
 
 def test_broken_inputs_raise_sandbox_errors_only():
+    """Every edit of a small pattern (and of a GarmentCode file) that breaks it is refused
+    with a one-line SandboxError naming the file; the edits that keep it valid load."""
     small = {
         "format": "sandbox-pattern/1",
         "units": "cm",
@@ -652,15 +702,31 @@ def test_broken_inputs_raise_sandbox_errors_only():
     gc = _gc_square()
     gc["pattern"]["stitches"] = [[{"panel": "sq", "edge": 1}, {"panel": "sq", "edge": 3}]]
     load_pattern(garmentcode_to_dict(gc))
-    cases = [(load_pattern, m) for m in _mutations(small)]
-    cases += [(lambda d: load_pattern(garmentcode_to_dict(d)), m) for m in _mutations(gc)]
-    for load, (path, value, d) in cases:
+    cases = [(lambda d: load_pattern(d, where="small.json"), m) for m in _mutations(small)]
+    cases += [
+        (lambda d: load_pattern(garmentcode_to_dict(d, where="gc.json"), where="gc.json"), m)
+        for m in _mutations(gc)
+    ]
+    refused = 0
+    for load, (path, original, value, d) in cases:
+        case = f"{list(path)} = {value!r}"
+        verdict = _verdict(path, original, value)
         try:
             load(d)
-        except SandboxError:
-            pass
+        except SandboxError as exc:
+            msg = str(exc)
+            assert verdict is not True, f"{case}: a valid edit refused: {msg}"
+            assert msg.startswith(("small.json: ", "gc.json: ")), f"{case}: {msg!r}"
+            assert "\n" not in msg, f"{case}: not one line: {msg!r}"
+            refused += 1
         except Exception as exc:  # pragma: no cover - the failure message names the case
-            pytest.fail(f"{path} = {value!r}: {type(exc).__name__}: {exc}")
+            pytest.fail(f"{case}: {type(exc).__name__}: {exc}")
+        else:
+            assert verdict is not False, f"{case}: broken input accepted silently"
+    assert refused > 0.8 * len(cases)
+    gc["pattern"]["stitches"] = {}
+    with pytest.raises(SandboxError, match=r"^gc.json: pattern.stitches must be a list$"):
+        garmentcode_to_dict(gc, where="gc.json")
 
 
 def test_check_cli(tmp_path, capsys):

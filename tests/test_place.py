@@ -5,6 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from sandbox import drafting
 from sandbox.collision.body_probe import body_inside_check
 from sandbox.collision.metrics import count_intersections_between
 from sandbox.errors import SandboxError
@@ -82,8 +83,8 @@ def test_arc_length_is_kept_across_the_panel(body):
     assert length == pytest.approx(0.4, rel=0.01)
 
 
+@pytest.mark.slow
 def test_library_garments_start_outside_the_body(body):
-    drafting = pytest.importorskip("sandbox.drafting")
     m, _, _ = body
     for name in drafting.garment_names():
         pattern = load_pattern(drafting.draft(name, m.measurements_requested, mannequin=m),
@@ -181,6 +182,7 @@ def test_wrapped_panels_start_less_stretched_and_no_more_crossed():
     assert crossings(relaxed, meshes) <= crossings(raw, meshes)
 
 
+@pytest.mark.slow
 def test_sleeved_top_starts_without_crossings_at_a_fine_mesh():
     """At 1 cm the push-out folds the T-shirt's sleeve caps through themselves in the armpit
     (74 crossing pairs before :func:`untangle`); placed, the garment starts with none,

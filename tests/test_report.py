@@ -3,6 +3,7 @@
 import json
 
 import numpy as np
+import pytest
 from PIL import Image
 
 from sandbox.validate.plot import loglog_png
@@ -18,6 +19,7 @@ def test_loglog_plot_draws_finite_points_only(tmp_path):
     assert ((img[:, :, 0] > 200) & (img[:, :, 1] < 80)).any()  # a red (second series) marker
 
 
+@pytest.mark.slow
 def test_tiny_report_writes_tables_plot_and_json(tmp_path):
     import subprocess
     import sys

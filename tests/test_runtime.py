@@ -1,6 +1,7 @@
 """sandbox.runtime: Taichi's field trees are recycled between independent scenes."""
 
 import numpy as np
+import pytest
 import taichi as ti
 
 from sandbox import runtime
@@ -16,6 +17,7 @@ def _scene():
     }, source="test_runtime"))  # fmt: skip
 
 
+@pytest.mark.slow
 def test_many_field_trees_in_one_process_are_recycled():
     # 700 trees is past Taichi's limit of 512 (which crashed the report and the suite)
     made = 0

@@ -159,6 +159,7 @@ def test_diverged_run_raises_in_the_api():
         run_scene(scene, progress=False)
 
 
+@pytest.mark.slow
 def test_cli_run_writes_mesh_with_uvs_image_and_metrics(tmp_path):
     path = write_toml(tmp_path / "tiny.toml", GOOD)
     out = tmp_path / "out"

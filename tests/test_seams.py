@@ -86,6 +86,7 @@ SEWN = {
 }  # fmt: skip
 
 
+@pytest.mark.slow
 def test_two_panels_are_pulled_together_along_the_seam():
     sc = build_scene(scene_from_dict(SEWN, source="sewn.toml"))
     assert sc.model.seam_count > 0
@@ -107,6 +108,7 @@ def test_reversed_panel_is_sewn_the_right_way_round():
     assert np.abs(x[p[:, 0], 1] - x[p[:, 1], 1]).max() < 0.02  # ends joined to the near ends
 
 
+@pytest.mark.slow
 def test_no_seam_fields_without_seams():
     sc = build_scene(sheet_spec())
     assert sc.model.seam_count == 0 and sc.model.seam_pairs is None
@@ -129,6 +131,7 @@ def test_bad_seams_are_named(edit, needle):
         scene_from_dict(data, source="sewn.toml")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("integrator", ["symplectic_euler", "implicit_euler"])
 def test_seams_can_be_cleared_and_sewn_while_the_model_runs(integrator):
     from sandbox.sim.seams import set_seam_springs

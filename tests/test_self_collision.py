@@ -119,6 +119,7 @@ def test_coplanarity_times_are_the_roots_of_the_cubic():
 
 
 # ---------------------------------------------------------------- the scene switch
+@pytest.mark.slow
 def test_self_collision_is_built_only_when_the_scene_asks():
     ball = [{"name": "ball", "shape": "sphere", "center_m": [0, -0.3, 0], "radius_m": 0.1}]
     assert build_scene(sheet_spec()).model.self_collider is None  # nothing to collide with
@@ -165,6 +166,7 @@ def momentum(model, v):
     return (model.mass_np[:, None] * v).sum(axis=0)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("pinned", [True, False])
 def test_fast_piece_does_not_pass_through_a_sheet_in_one_large_step(pinned):
     """10 m/s with dt = 10 ms: the top square would move 10 cm, through the bottom one."""
@@ -183,6 +185,7 @@ def test_fast_piece_does_not_pass_through_a_sheet_in_one_large_step(pinned):
         assert np.allclose(momentum(model, state.velocities()), p0, atol=1e-12)
 
 
+@pytest.mark.slow
 def test_a_piece_far_away_coarsens_the_grid_and_contact_still_holds():
     """The candidate grid spans the cloth's bounding box with a fixed cell count: a piece
     2 km away makes its cells coarse, yet the fast piece still stops on the
@@ -201,6 +204,7 @@ def test_a_piece_far_away_coarsens_the_grid_and_contact_still_holds():
     assert x[n_bottom : n_bottom + n_top, 1].min() > 0.0
 
 
+@pytest.mark.slow
 def test_rigid_impact_zones_resolve_what_the_impulses_leave():
     """The fail-safe alone (no CCD impulse pass): zones leave no crossing, momentum kept."""
     model, n_bottom = two_squares(pinned_bottom=False, speed=10.0)
@@ -219,6 +223,7 @@ def test_rigid_impact_zones_resolve_what_the_impulses_leave():
 
 
 # ---------------------------------------------------------------- the issue's scenes
+@pytest.mark.slow
 def test_sheet_dropped_on_the_floor_piles_in_folds_without_crossing_itself():
     data = {
         "scene": {"name": "floor_pile"},
@@ -276,6 +281,7 @@ def floor_pile(name: str) -> dict:
     }  # fmt: skip
 
 
+@pytest.mark.slow
 def test_the_same_scene_runs_to_the_same_positions():
     """Scripted runs must be reproducible: the candidate list is put in a fixed order after
     the parallel queries (whose threads append in any order) and the means are summed in
@@ -289,6 +295,7 @@ def test_the_same_scene_runs_to_the_same_positions():
     assert np.array_equal(runs[0], runs[1])
 
 
+@pytest.mark.slow
 def test_partial_refreshes_keep_every_pair_closer_than_the_thickness_in_the_list():
     """The candidate list is renewed in part (only the pairs of the few vertices that
     drifted) when the cloth moves slowly. After every step, each pair closer than h must

@@ -162,7 +162,8 @@ def garmentcode_to_dict(
     if not isinstance(spec, dict) or not isinstance(spec.get("pattern"), dict):
         raise SandboxError(f"{where}: not a GarmentCode specification (no 'pattern' object)")
     pat = spec["pattern"]
-    props = spec.get("properties", {}) or {}
+    props = spec.get("properties")
+    props = {} if props is None else props
     if not isinstance(props, dict):
         raise SandboxError(f"{where}: 'properties' must be an object")
     units_in_meter = props.get("units_in_meter", 100)
@@ -191,7 +192,8 @@ def garmentcode_to_dict(
             normalize_translation,
         )  # fmt: skip
     seams = []
-    stitches = pat.get("stitches", []) or []
+    stitches = pat.get("stitches")
+    stitches = [] if stitches is None else stitches
     if not isinstance(stitches, list):
         raise SandboxError(f"{where}: pattern.stitches must be a list")
     for i, st in enumerate(stitches):
