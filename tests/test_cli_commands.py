@@ -40,5 +40,6 @@ def test_demo_is_drape_with_its_defaults(monkeypatch, tmp_path):
     assert main(["demo", "--out", str(tmp_path), "--edge-cm", "4", "--no-render", "-q"]) == 0
     assert seen["garment"] == cli.DEFAULT_GARMENT and seen["list"] is False
     assert seen["edge_cm"] == 4.0 and seen["out"] == tmp_path and seen["no_render"]
-    assert seen["integrator"] == "symplectic_euler" and seen["fabric"] is None
+    assert seen["integrator"] is None and seen["config"] is None  # DrapeConfig's defaults
+    assert seen["fabric"] is None
     assert seen["time_limit"] is None and not seen["no_self_collision"]
