@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-import sandbox.sim.solver as solver_mod
 from sandbox.scene.build import build_scene
 from sandbox.scene.run import run_scene
+from sandbox.sim.solver import SymplecticEulerSolver
 from sandbox.sim.stop import DisplacementMonitor, StopRule
 from tests.helpers import sheet_spec
 
@@ -121,7 +121,8 @@ def test_stop_rule_is_measured_over_a_frame_not_a_step():
 
 @pytest.mark.slow
 @pytest.mark.parametrize("limit", [0, 10**9])
-def test_both_launch_paths_run_a_scene(monkeypatch, limit):
-    monkeypatch.setattr(solver_mod, "FUSED_PARTICLE_LIMIT", limit)
-    r = run_scene(build_scene(sheet_spec(stop={"time_limit_s": 0.2})), progress=False)
+def test_both_launch_paths_run_a_scene(limit):
+    scene = build_scene(sheet_spec(stop={"time_limit_s": 0.2}))
+    scene.solver = SymplecticEulerSolver(scene.model, fused_particle_limit=limit)
+    r = run_scene(scene, progress=False)
     assert r.metrics["steps"] > 0 and np.isfinite(r.positions).all()

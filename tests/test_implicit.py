@@ -378,16 +378,15 @@ def _with_seams(scene):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("factor", ["banded", "superlu"])
-def test_direct_and_cg_linear_solvers_agree(factor, monkeypatch):
-    from sandbox.sim import sparse
-
-    if factor == "superlu":  # the wide-band path: LU, reused as CG's preconditioner
-        monkeypatch.setattr(sparse, "BANDED_FLOPS", 0.0)
+def test_direct_and_cg_linear_solvers_agree(factor):
+    # "superlu": every band counts as wide, so LU, reused as CG's preconditioner
+    banded_flops = 0.0 if factor == "superlu" else ImplicitConfig().banded_flops
     runs = {}
     for name in ("direct", "cg"):
         scene = _sheet(stiff("denim", 100.0), pins=[{"corners": "top"}], damping=8.0,
                        rotation=-90.0, integrator="implicit_euler")  # fmt: skip
-        scene.solver = ImplicitEulerSolver(scene.model, config=ImplicitConfig(linear_solver=name))
+        config = ImplicitConfig(linear_solver=name, banded_flops=banded_flops)
+        scene.solver = ImplicitEulerSolver(scene.model, config=config)
         x, sag = _run(scene, 0.5)
         runs[name] = (x, scene.solver.stats())
     (xd, sd), (xc, sc) = runs["direct"], runs["cg"]
@@ -468,14 +467,13 @@ def test_contact_energy_gradient_and_hessian_match_finite_differences(where):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("mu", [0.2, 0.7])
-def test_implicit_friction_on_the_incline_follows_coulomb(mu, monkeypatch):
+def test_implicit_friction_on_the_incline_follows_coulomb(mu):
     """A square on a 30° plane at 1/240 s: with μ = 0.2 < tan 30° it slides with
     a = g (sin α − μ cos α) (backward Euler's own error over 72 steps: (N+1)/N − 1 = 1.4 %);
     with μ = 0.7 > tan 30° it sticks (creeps less than 1 mm in 0.3 s)."""
     from sandbox.validate import cases
 
-    monkeypatch.setattr(cases, "INCLINE_MU", mu)
-    run = cases.incline_case(0.02, "implicit_euler", 1 / 240)
+    run = cases.incline_case(0.02, "implicit_euler", 1 / 240, mu=mu)
     assert run.outcome == "ok" and run.extra["unconverged_steps"] == 0
     if mu < 0.5:
         assert run.error_pct <= 2.0

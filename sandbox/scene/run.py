@@ -1,7 +1,7 @@
 """Run a scene headless: frames of simulated time until the stop rule or a limit.
 
-The same loop serves the CLI, the validation runs and (later) the window: a caller may
-pass ``on_frame`` to look at each frame.
+The same loop serves the CLI, the drapes and the validation runs: a caller may pass
+``on_frame`` to look at each frame.
 """
 
 from __future__ import annotations
@@ -127,23 +127,30 @@ def run_scene(
         "dt_policy": "guard-adaptive" if guard.enabled else "fixed",
         **watch.metrics(),
     }
-    s = scene.solver.stats()
-    if s:  # implicit Euler: what its Newton solves cost (since the solver was made or its
-        # stats reset; a drape's include the sewing)
-        metrics["newton"] = {key: int(s[key]) for key in (
-            "steps", "newton_iterations", "unconverged_steps", "line_search_halvings",
-            "factorisations")}  # fmt: skip
-        metrics["newton"]["max_residual_force_over_weight"] = float(
-            s["max_residual_force_over_weight"]
-        )
-    x_final = scene.state.positions()
-    if model.seam_count:
-        metrics["seam_count"] = model.seam_count
-        metrics["seam_gap_max_m"] = seam_gap_max(model, x_final)
-    metrics.update(contact_metrics(model, x_final))
+    metrics.update(state_metrics(scene))
     log.info("%s: %s after %d steps (%.2f s simulated, %.2f s wall)", spec.name, reason,
              steps, frame * frame_s, wall)  # fmt: skip
     return RunResult(converged, reason, metrics, scene.state.positions())
+
+
+def state_metrics(scene: Scene) -> dict:
+    """What the run's final state and its solver report: Newton's totals (``newton``, implicit
+    Euler only: since the solver was made or its stats reset, so a drape's include the
+    sewing), the seam gap and the contact measures (:func:`contact_metrics`)."""
+    model = scene.model
+    out = {}
+    s = scene.solver.stats()
+    if s:
+        out["newton"] = {key: int(s[key]) for key in (
+            "steps", "newton_iterations", "unconverged_steps", "line_search_halvings",
+            "factorisations")}  # fmt: skip
+        out["newton"]["max_residual_force_over_weight"] = float(s["max_residual_force_over_weight"])
+    x_final = scene.state.positions()
+    if model.seam_count:
+        out["seam_count"] = model.seam_count
+        out["seam_gap_max_m"] = seam_gap_max(model, x_final)
+    out.update(contact_metrics(model, x_final))
+    return out
 
 
 def contact_metrics(model, x: np.ndarray) -> dict:

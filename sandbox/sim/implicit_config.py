@@ -53,6 +53,10 @@ class ImplicitConfig:
     ``"cg"``: matrix-free CG with the block-Jacobi preconditioner, all in Taichi kernels
     (what a GPU runs); ``"auto"``: direct on the CPU, cg elsewhere or with
     ``compression_stiffness`` (whose matrix can be indefinite)."""
+    banded_flops: float = 3e7
+    """The direct solver factorises a narrow band (N·(bw + 1)² up to this) by banded
+    Cholesky, about 10 ms at the default; a wider one by SuperLU
+    (:class:`sandbox.sim.sparse.FactorisedSolver`)."""
     armijo: float = 1e-4
     """Armijo constant of the backtracking line search [1]: a step must lower E by this
     fraction of its linear prediction (the usual textbook value)."""

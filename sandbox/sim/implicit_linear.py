@@ -40,7 +40,7 @@ class LinearSolve:
 
         m = self.model
         self.pattern = sparse.BlockPattern(m)
-        self.factor = sparse.FactorisedSolver()
+        self.factor = sparse.FactorisedSolver(banded_flops=self.config.banded_flops)
         # numpy arrays the assembly kernel writes into directly (no copies, no extra launch)
         self.blocks = np.zeros((self.pattern.max_blocks(), 3, 3))
         self.grad_np = np.zeros((max(1, m.particle_count), 3))

@@ -41,8 +41,11 @@ class SymplecticEulerSolver:
 
     Implements :class:`~sandbox.sim.integrator.Integrator`."""
 
-    def __init__(self, model: Model):
+    def __init__(self, model: Model, *, fused_particle_limit: int = FUSED_PARTICLE_LIMIT):
         self.model = model
+        self.fused_particle_limit = int(fused_particle_limit)
+        """On the CPU, models of up to this many particles without self-collision advance in
+        one serial kernel launch (:data:`FUSED_PARTICLE_LIMIT`; -1: never)."""
         self.force = ti.Vector.field(3, float, shape=max(1, model.particle_count))
         self.tri_force = ti.Vector.field(3, float, shape=max(1, 3 * model.tri_count))
         self.hinge_force = None
@@ -99,7 +102,7 @@ class SymplecticEulerSolver:
 
     def advance(self, state: State, control: Control, dt: float, steps: int, first_index=0):
         """Advance ``state`` in place by ``steps`` steps of ``dt`` [s]."""
-        fused = runtime.arch() == "cpu" and self.model.particle_count <= FUSED_PARTICLE_LIMIT
+        fused = runtime.arch() == "cpu" and self.model.particle_count <= self.fused_particle_limit
         if fused and self.self_collider is None:
             self._fused_kernel(
                 state.x, state.v, control.gravity, control.damping_per_s, dt, steps, first_index

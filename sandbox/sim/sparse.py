@@ -146,11 +146,15 @@ class FactorisedSolver:
         refactor_after: CG iterations preconditioned by the old factors after which the
             matrix is factorised again (the next solves are then exact).
         rtol: relative residual |b − A Δx| <= rtol |b| that ends CG.
+        banded_flops: largest N·(bw + 1)² factorised by banded Cholesky; wider bands go
+            to SuperLU (:data:`BANDED_FLOPS`).
     """
 
-    def __init__(self, refactor_after: int = 8, rtol: float = 1e-3):
+    def __init__(self, refactor_after: int = 8, rtol: float = 1e-3,
+                 banded_flops: float = BANDED_FLOPS):  # fmt: skip
         self.refactor_after = int(refactor_after)
         self.rtol = float(rtol)
+        self.banded_flops = float(banded_flops)
         self.factors = None  # (kind, factors): ("band", c) or ("lu", SuperLU object)
         self.factorisations = 0
 
@@ -161,12 +165,12 @@ class FactorisedSolver:
         """(Δx, iterations) for A Δx = b, A from the block values (nb, 3, 3) and b in the
         pattern's order; 1 iteration when A was factorised for this solve.
 
-        A narrow band (cost N·bw² <= ``BANDED_FLOPS``, e.g. a strip) is factorised by banded
+        A narrow band (cost N·bw² <= ``banded_flops``, e.g. a strip) is factorised by banded
         Cholesky (LAPACK pbtrf; 2 ms for the 1.4k-unknown cantilever), a wide one by SuperLU.
         Either is kept and preconditions CG on the next systems while that converges within
         ``refactor_after`` iterations.
         """
-        kind = "band" if pattern.banded_cost() <= BANDED_FLOPS else "lu"
+        kind = "band" if pattern.banded_cost() <= self.banded_flops else "lu"
         if kind == "band":
             ab = pattern.banded(blocks)
             matvec = lambda v: sbmv(pattern.bandwidth, 1.0, ab, v)  # noqa: E731

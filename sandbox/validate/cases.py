@@ -254,8 +254,9 @@ def sheet_case(h: float, integrator: str, reference: dict, time_s: float,
 INCLINE_DEG, INCLINE_MU, INCLINE_T = 30.0, 0.2, 0.3
 
 
-def incline_spec(h: float) -> tuple[SceneSpec, np.ndarray]:
-    """A 10 cm denim square on a 30° plane with μ = 0.2; returns (spec, down-slope unit)."""
+def incline_spec(h: float, mu: float = INCLINE_MU) -> tuple[SceneSpec, np.ndarray]:
+    """A 10 cm denim square on a 30° plane with friction μ (default 0.2); returns (spec,
+    down-slope unit)."""
     alpha = math.radians(INCLINE_DEG)
     n = np.array([0.0, math.cos(alpha), math.sin(alpha)])
     gap = 0.003
@@ -265,8 +266,8 @@ def incline_spec(h: float) -> tuple[SceneSpec, np.ndarray]:
         "scene": {"name": "friction-incline"},
         "simulation": {"damping_per_s": 0.0, "frame_rate_hz": 30},
         "stop": {"time_limit_s": INCLINE_T},
-        "collision": {"thickness_m": gap, "friction_static": INCLINE_MU,
-                      "friction_kinetic": INCLINE_MU, "self_collision": False},
+        "collision": {"thickness_m": gap, "friction_static": mu,
+                      "friction_kinetic": mu, "self_collision": False},
         "cloth": [{"name": "square", "size_m": [0.1, 0.1], "edge_length_m": h,
                    "material": "denim", "origin_m": origin.tolist(), "rotation_deg": rot}],
         "collider": [{"name": "slope", "shape": "plane", "point_m": [0, 0, 0],
@@ -281,11 +282,13 @@ def incline_spec(h: float) -> tuple[SceneSpec, np.ndarray]:
 
 
 def incline_case(h: float, integrator: str, dt_s: float | None = None,
-                 wall_limit_s: float = 60.0) -> CaseRun:  # fmt: skip
-    spec, down = incline_spec(h)
+                 wall_limit_s: float = 60.0, mu: float = INCLINE_MU) -> CaseRun:  # fmt: skip
+    """The incline run at mesh edge ``h`` [m]: its acceleration against Coulomb's
+    g (sin α − μ cos α)."""
+    spec, down = incline_spec(h, mu)
     scene, result, failure, _ = _execute(spec, integrator, dt_s, wall_limit_s)
     alpha = math.radians(INCLINE_DEG)
-    exact = G * (math.sin(alpha) - INCLINE_MU * math.cos(alpha))
+    exact = G * (math.sin(alpha) - mu * math.cos(alpha))
     if result is None:
         return _finish("incline", integrator, h, scene, None, failure, math.nan, "accel %", {})
     x0 = scene.model.initial_positions_np.mean(axis=0)
@@ -294,7 +297,7 @@ def incline_case(h: float, integrator: str, dt_s: float | None = None,
     a = 2.0 * travelled / t**2
     err = 100.0 * abs(a - exact) / exact
     return _finish("incline", integrator, h, scene, result, None, err, "accel %",
-                   {"angle_deg": INCLINE_DEG, "mu": INCLINE_MU},
+                   {"angle_deg": INCLINE_DEG, "mu": mu},
                    {"acceleration_m_s2": a, "exact_m_s2": exact})  # fmt: skip
 
 
