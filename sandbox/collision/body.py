@@ -37,6 +37,9 @@ row; reach 2 cm + twice the step's predicted move) would take it as its plane an
 # step |x1 - x| is at most that pad finds, in the one cell of its end point x1, every
 # triangle within h of x1 and every triangle its step crosses (the crossing point is within
 # |x1 - x| of x1): one cell, each triangle once, instead of the cells of its box.
+TIE_M = 1e-12
+"""Two triangles whose closest points to a vertex are this close in distance [m] tie (they
+share the closest point: an edge or a corner); see :meth:`BodyCollider.respond_split`."""
 BIN_PAD_THICKNESSES = 2.0
 CREASE_COS = 0.98
 """Two faces meet in a crease (:meth:`BodyCollider.contact_planes`) when their normals
@@ -436,6 +439,7 @@ class BodyCollider:
         best_d = 1e30
         best_q = ti.Vector([0.0, 0.0, 0.0])
         best_pn = ti.Vector([0.0, 0.0, 0.0])
+        best_side = -1e30  # (x1 - q) . n of the closest triangle: > 0 in front of its plane
         # a step whose box has more cells than a query may visit tests every triangle
         # instead (a 10 m/s impact at 1/60 s): visiting only the box's first cells, lowest x
         # first, would miss crossings on its far side
@@ -476,10 +480,14 @@ class BodyCollider:
                     if near or s0 * s1 <= 0.0:
                         q = closest_point_on_triangle(x1, a, b, c)
                         d = (x1 - q).norm()
-                        if d < best_d:
+                        side = (x1 - q).dot(n)
+                        # triangles that share the closest point (an edge or a corner) tie:
+                        # the one whose plane the vertex is most in front of decides the side
+                        if d < best_d - TIE_M or (d <= best_d + TIE_M and side > best_side):
                             best_d = d
                             best_q = q
                             best_pn = n
+                            best_side = side
             cell = self._next_cell(cell, lo, hi)
         v_new = v
         cn = ti.Vector([0.0, 0.0, 0.0])  # the contact normal, where there is contact
@@ -504,6 +512,13 @@ class BodyCollider:
                 if (x - best_q).dot(n) < 0.0 and best_t > 1.0:
                     n = -n
             phi = (x1 - best_q).dot(n)
+            if phi > 0.0 and phi < best_d * (1.0 - 1e-6):
+                # in front of the body, nearest to an edge or a corner of it: the distance
+                # and its direction are those to the closest point (the face's plane would
+                # measure less: at a sharp rim, a vertex resting on the top face beside the
+                # rim is 0 from the side face's plane and was pushed sideways by h a step)
+                n = (x1 - best_q) / best_d
+                phi = best_d
             if phi < h:
                 dvn = (h - phi) / dt  # normal velocity change that restores the thickness
                 vn = v_new.dot(n)
