@@ -1,4 +1,4 @@
-"""The guard (issue 7 item 2): rollback and smaller dt instead of a blow-up."""
+"""The guard: rollback and smaller dt instead of a blow-up, and advice that follows what it saw."""
 
 import numpy as np
 import pytest
@@ -69,3 +69,28 @@ def test_run_scene_turns_an_unrecoverable_run_into_simulation_diverged():
     scene = _sheet(400.0)
     with pytest.raises(SimulationDiverged, match=r"step \d+ near vertex \d+"):
         run_scene(scene, progress=False, guard=GuardConfig(max_halvings=1))
+
+
+def test_the_advice_follows_what_shrinking_dt_showed():
+    """After a few halvings the guard still suggests a shorter step; once a step 8 times
+    shorter has failed too, it says the step size is not the cause and names the collider
+    the vertex was touching (or that it touched none)."""
+    from sandbox.scene.spec import scene_from_dict
+    from tests.helpers import sheet_scene
+
+    data = sheet_scene()  # its corner (0, 0) is at (-0.1, 0.3, 0): a ball 1 mm below it
+    centre = np.array([-0.1, 0.3 - 0.101, 0.0])
+    data["collider"] = [{"name": "ball", "shape": "sphere", "center_m": centre.tolist(),
+                         "radius_m": 0.1, "subdivisions": 4}]  # fmt: skip
+    scene = build_scene(scene_from_dict(data, source="test.toml"))
+    guard = StepGuard(scene, GuardConfig())
+    gap = np.linalg.norm(scene.state.positions() - centre, axis=1) - 0.1
+    near, far = int(np.argmin(gap)), int(np.argmax(gap))
+    assert gap[near] < 0.002 < 0.01 < gap[far]
+    short = guard._message(10, near, "the energy rose", scene.dt_s / 2)
+    assert "try a smaller dt_s" in short and "ball" not in short
+    touching = guard._message(10, near, "the energy rose", scene.dt_s / 16)
+    assert "does not come from the step size" in touching and "'ball'" in touching
+    assert "try a smaller dt_s" not in touching and "\n" not in touching
+    alone = guard._message(10, far, "the energy rose", scene.dt_s / 16)
+    assert "touching no collider" in alone

@@ -42,6 +42,11 @@ from sandbox.errors import SandboxError
 log = logging.getLogger(__name__)
 
 
+STEP_SIZE_RULED_OUT = 8.0
+"""A run that still fails with its step shortened this many times did not fail for its step
+size, and the guard's message says so instead of suggesting a shorter step."""
+
+
 class GuardStop(SandboxError):
     """The guard could not recover a run: the message names the step, vertex and reason."""
 
@@ -268,9 +273,35 @@ class StepGuard:
         if dt is not None:
             tried = (f" The guard rolled back {self.rollbacks + 1} times and shrank dt from "
                      f"{sc.dt_s:.3g} s to {dt:.3g} s without recovering.")  # fmt: skip
-        return (
-            f"{sc.spec.source}: the simulation diverged at step {step} near {where}: "
-            f"{reason}.{tried} dt = {sc.dt_s:.3g} s; the explicit stability estimate is "
-            f'{sc.dt_limit_s:.3g} s: try a smaller dt_s, more damping, dt_s = "auto" or '
-            'integrator = "implicit_euler". No mesh was written.'
+        if dt is not None and dt <= sc.dt_s / STEP_SIZE_RULED_OUT:
+            advice = self._not_the_step(vertex)
+        else:
+            advice = (f" dt = {sc.dt_s:.3g} s; the explicit stability estimate is "
+                      f'{sc.dt_limit_s:.3g} s: try a smaller dt_s, more damping, dt_s = "auto" '
+                      'or integrator = "implicit_euler".')  # fmt: skip
+        return (f"{sc.spec.source}: the simulation diverged at step {step} near {where}: "
+                f"{reason}.{tried}{advice} No mesh was written.")  # fmt: skip
+
+    def _not_the_step(self, vertex: int) -> str:
+        """The advice once a much shorter step did not help: the energy came from something
+        that does not shrink with dt. Names the collider the vertex was touching, if any."""
+        from trimesh.triangles import closest_point
+
+        sc = self.scene
+        x = sc.state.positions()[vertex]  # the last good state (rolled back to)
+        out = (" A step that much shorter did not help, so the energy does not come from the "
+               "step size.")  # fmt: skip
+        for c in sc.model.colliders:
+            tris = c.body_x.to_numpy().astype(float)[c.triangles_np]
+            d = float(np.linalg.norm(x - closest_point(tris, np.tile(x, (len(tris), 1))),
+                                     axis=1).min())  # fmt: skip
+            h = float(c.thickness[None])
+            if d <= 2.0 * h:
+                return out + (f" The vertex was {d * 1e3:.2g} mm from collider {c.name!r} (its "
+                              f"contact thickness is {h * 1e3:.2g} mm): the contact there put "
+                              "the energy in; look for a sharp edge or corner of that body "
+                              "under the cloth.")  # fmt: skip
+        return out + (
+            " The vertex was touching no collider: look at what pulls on it (pins, "
+            "seams, a stiffness far above the fabric presets)."
         )
