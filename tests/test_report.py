@@ -1,4 +1,4 @@
-"""The report (issue 7 items 3-4) on a tiny configuration: tables, plot and JSON."""
+"""The report on a tiny configuration: tables, plot and JSON."""
 
 import json
 
@@ -57,3 +57,8 @@ def test_tiny_report_writes_tables_plot_and_json(tmp_path):
     big = [c for c in cells if c["integrator"] == "symplectic_euler" and c["dt_s"] > 0.03][0]
     assert big["guard_fired"] and big["dt_warning"] and "stable limit" in big["dt_warning"]
     assert "written to" in proc.stdout
+    contact = data["contact"]
+    assert [c["case"] for c in contact] == ["cylinder rim (cotton x1)"] * 2
+    assert all(c["outcome"] in ("stable", "guarded") for c in contact)
+    page = (tmp_path / "stability-contact.md").read_text()
+    assert "| cylinder rim (cotton x1) |" in page and "Failed cells: 0 of 2." in page

@@ -30,6 +30,7 @@ from sandbox.errors import SandboxError
 from sandbox.precision import add_precision_flags
 from sandbox.validate import cases, stability
 from sandbox.validate.cases import INTEGRATORS, SHORT, CaseRun
+from sandbox.validate.stability_report import CELL_HEAD, contact_markdown, stability_markdown
 
 PRESETS = ["cotton", "denim", "silk", "jersey", "knit", "polyester", "sweater", "ponte",
            "swimwear", "blanket"]  # fmt: skip
@@ -52,6 +53,8 @@ def plan(quick: bool, tiny: bool = False) -> dict:
             "matrix": {"rows": [stability.ROWS[0]], "dts": [1e-3, 1.0 / 30.0], "time_s": 0.1,
                        "wall": 2.0},
             "extremes": None,
+            "contact": {"time_s": 0.1, "wall": 20.0, "integrators": list(INTEGRATORS),
+                        "scenes": ["cylinder rim"], "fabrics": [("cotton", 1.0)]},
             "wall": 60.0,  # the runs take < 1 s; the cap only has to survive a loaded machine
         }  # fmt: skip
     if quick:
@@ -68,6 +71,7 @@ def plan(quick: bool, tiny: bool = False) -> dict:
             "matrix": {"rows": [stability.ROWS[0], stability.ROWS[1], stability.ROWS[4]],
                        "dts": [1e-5, 1e-3, 1.0 / 30.0], "time_s": 0.2, "wall": 2.0},
             "extremes": {"time_s": 0.4, "wall": 3.0, "ramp": False},
+            "contact": {"time_s": 0.3, "wall": 20.0, "integrators": list(INTEGRATORS)},
             "wall": 30.0,
         }  # fmt: skip
     implicit_dts = [None, 1.0 / 240.0]  # None: 1/60 s
@@ -85,6 +89,7 @@ def plan(quick: bool, tiny: bool = False) -> dict:
         "presets": {"names": PRESETS, "time_s": 3.0},
         "matrix": {"rows": stability.ROWS, "dts": stability.DTS, "time_s": 0.5, "wall": 10.0},
         "extremes": {"time_s": 1.0, "wall": 30.0, "ramp": True},
+        "contact": {"time_s": 1.0, "wall": 60.0, "integrators": list(INTEGRATORS)},
         "wall": 300.0,
     }  # fmt: skip
 
@@ -198,12 +203,6 @@ def preset_row(r: dict) -> str:
     )
 
 
-CELL_HEAD = (
-    "| case | integrator | dt [s] | outcome | max strain | guard fired | rollbacks | "
-    "final dt [s] | wall [s] | sim time [s] |\n|---|---|---|---|---|---|---|---|---|---|"
-)
-
-
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(
         prog="python -m sandbox report",
@@ -213,7 +212,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--quick", action="store_true", help="a small grid (< 5 min on 2 cores)")
     ap.add_argument("--out", default="docs", help="output folder (default: docs)")
-    ap.add_argument("--only", choices=["all", "error", "stability"], default="all",
+    ap.add_argument("--only", choices=["all", "error", "stability", "contact"], default="all",
                     help="run only one part (default: all)")  # fmt: skip
     ap.add_argument("--arch", default="cpu", choices=["cpu", "gpu"])
     add_precision_flags(ap)
@@ -294,6 +293,17 @@ def _report(args) -> int:
                     stability_written=written)  # fmt: skip
         _save(out, data, args.only)
         write_text(out / "stability.md", stability_markdown(data, cells, ext, p))
+    if args.only in ("all", "contact"):
+        from sandbox.validate.contact_cases import contact_matrix
+
+        c = p["contact"]
+        log(CELL_HEAD)
+        cells = contact_matrix(c["integrators"], c["time_s"], c["wall"],
+                               scenes=c.get("scenes"), fabrics=c.get("fabrics"),
+                               on_cell=lambda cell: log(stability.cell_row(cell)))  # fmt: skip
+        data.update(contact=[cell.as_dict() for cell in cells], contact_written=written)
+        _save(out, data, args.only)
+        write_text(out / "stability-contact.md", contact_markdown(data, cells, p))
     data["total_wall_s"] = time.perf_counter() - started
     _save(out, data, args.only)
     log(f"report ({mode}) written to {out} in {data['total_wall_s']:.0f} s")
@@ -313,9 +323,10 @@ def _save(out: Path, data: dict, only: str) -> None:
         except ValueError:
             old = {}
         if old.get("mode") == data["mode"]:
-            keep = ("matrix", "extremes", "stability_written")
-            if only == "stability":
-                keep = ("runs", "sheet_reference", "speedup", "presets", "error_written")
+            parts = {"error": ("runs", "sheet_reference", "speedup", "presets", "error_written"),
+                     "stability": ("matrix", "extremes", "stability_written"),
+                     "contact": ("contact", "contact_written")}  # fmt: skip
+            keep = [k for part, keys in parts.items() if part != only for k in keys]
             for k in keep:
                 if k in old and k not in data:
                     merged[k] = old[k]
@@ -350,6 +361,9 @@ def _render(args) -> int:
         cells = [_cell(c) for c in data["matrix"]]
         ext = [_cell(c) for c in data.get("extremes", [])]
         write_text(out / "stability.md", stability_markdown(data, cells, ext, p))
+    if "contact" in data:
+        cells = [_cell(c) for c in data["contact"]]
+        write_text(out / "stability-contact.md", contact_markdown(data, cells, p))
     if path.resolve() != (out / "report" / "report.json").resolve():
         write_json(out / "report" / "report.json", data)
     print(f"rendered {out}")
@@ -491,102 +505,3 @@ def why_not_faster(runs: list[CaseRun]) -> list[str]:
         "accuracy is the cheapest: a whole 1/30 s frame per step.",
     ]
     return out
-
-
-GUARD_TEXT = [
-    "## The guard",
-    "",
-    "`run_scene` (`sandbox/scene/run.py`) advances every scene a frame at a time through "
-    "`sandbox.sim.guard.StepGuard`. After each frame it checks for NaN/inf (the solver's "
-    "`first_bad()` and the state), for a rise of the mechanical energy (kinetic + elastic + "
-    "gravity) of more than M·|g|·L in one frame, for a warp/weft stretch above 4 (300 % "
-    "strain), and for more than 10 % of the triangles turning over in the frame while the "
-    "energy rose. On a failure it restores the last good state, halves dt (the frame is "
-    "re-run with twice the steps) and goes on; after 10 good frames it doubles dt again, "
-    "never above the scene's dt. After 6 halvings (dt/64) it restores the last good state "
-    "and raises `SimulationDiverged` with the step, the vertex (and its cloth) and the "
-    "reason; no mesh is written. `run_scene(..., guard=False)` keeps only the NaN check, "
-    "`guard=GuardConfig(...)` sets the thresholds.",
-    "",
-    "metrics.json gains `guard_enabled`, `guard_fired`, `guard_rollbacks`, "
-    "`guard_final_dt_s`, `guard_min_dt_s`, `guard_max_strain`, `guard_events` (frame, step, "
-    "dt, reason, vertex of the first 20 rollbacks), `dt_policy` (`guard-adaptive`), and "
-    "`dt_above_stable_limit` / `dt_warning`: a symplectic-Euler scene whose dt_s is above "
-    "the builder's stability estimate (`sandbox.scene.build.stable_dt_estimate`) is warned "
-    "(the message names that limit) and then runs on the guard's adaptive dt. The estimate "
-    "is conservative (the hanging sheets stay stable up to about 1.8× it), so a warned run "
-    "need not fire the guard.",
-    "",
-]
-
-
-def stability_markdown(data, cells, ext, p) -> str:
-    m = p["matrix"]
-    made = data.get("stability_written") or data  # when and where the matrix was run
-    lines = [
-        "# Stability matrix",
-        "",
-        f"Written by `{data['command']}` on {made['date']} ({made['machine']}). Raw numbers: "
-        "[report/report.json](report/report.json). Code: `sandbox/validate/stability.py`.",
-        "",
-        "Matrix: a 20 × 20 cm sheet on a 2 cm mesh starts flat and horizontal and falls, "
-        "hanging from its two top corners (damping 1/s), for "
-        f"{m['time_s']:g} s of simulated time, each run capped at {m['wall']:g} s of wall "
-        "time. Rows: the softest measured preset (sweater), denim, and denim with stretch "
-        "and shear ×10, ×100, ×1000 (bending as measured). Outcome: **stable** = finished at "
-        "the asked dt with no rollback; **guarded** = the guard (`sandbox/sim/guard.py`) "
-        "rolled back and halved dt at least once, then finished (no NaN reached the state "
-        "kept); **failed** = it could not recover and stopped with a message naming the "
-        "step and vertex; **wall limit** = the cap stopped it first (sim time shows how far "
-        "it got). Max strain is the largest warp/weft strain at any frame end.",
-        "",
-        *GUARD_TEXT,
-        "## Summary (outcome per stiffness and dt)",
-        "",
-    ]
-    dts = m["dts"]
-    head = "| stiffness | integrator | " + " | ".join(f"dt = {d:.3g} s" for d in dts) + " |"
-    lines += [head, "|---|---|" + "---|" * len(dts)]
-    keyed = {}
-    for c in cells:
-        keyed.setdefault((c.case, c.integrator), []).append(c)
-    for (case, integ), row in keyed.items():
-        parts = []
-        for c in row:
-            s = c.outcome
-            if c.outcome == "guarded":
-                s += f" ({c.rollbacks}×, {c.final_dt_s:.2g} s)"
-            if c.max_strain is not None and c.outcome != "failed":
-                s += f", ε {c.max_strain:.2g}"
-            parts.append(s)
-        lines.append(f"| {case} | {SHORT[integ]} | " + " | ".join(parts) + " |")
-    lines += ["", "## All cells", "", CELL_HEAD, *[stability.cell_row(c) for c in cells], ""]
-    e = p["extremes"] or {"wall": 0.0}
-    lines += [
-        "## Extreme cases",
-        "",
-        f"Each at the integrator's automatic dt (symplectic: 0.9 × the stability estimate; "
-        f"implicit: 1/60 s) unless stated, through the guard, capped at {e['wall']:g} s of "
-        "wall time. Slivers: a 20 cm grid whose 6th column of vertices is moved to 10 µm from "
-        "the 5th (a row of triangles with near-zero area). Crumpled: the sheet starts scaled "
-        "to 10 % of its size with ±5 mm random offsets, hanging from one corner. Impact: a "
-        "30 cm jersey sheet at 10 m/s against a cylinder of radius 3 cm, no gravity. Resize: "
-        "a 40 cm sheet draped on a sphere (r = 8 cm) whose collider is scaled ×1.3 or ×0.7 in "
-        "one frame half-way (`BodyCollider.update`). Seam: two 20 × 30 cm panels whose sewn "
-        "edges start 30 cm apart, no gravity. Self-collision is off in these scenes (cost).",
-        "",
-        CELL_HEAD.replace("| sim time [s] |", "| sim time [s] | notes |").replace(
-            "|---|\n", "|---|---|\n", 1
-        ).replace("|---|---|---|---|---|---|---|---|---|---|", "|---|---|---|---|---|---|---|"
-                  "---|---|---|---|"),
-    ]  # fmt: skip
-    for c in ext:
-        notes = ", ".join(f"{k} {_fmt(v) if isinstance(v, float) else v}"
-                          for k, v in c.extra.items())  # fmt: skip
-        if c.dt_warning:
-            notes += f"; dt above the stable limit {c.dt_limit_s:.3g} s (warned)"
-        if c.message:
-            notes += f"; {c.message}"
-        lines.append(stability.cell_row(c) + f" {notes} |")
-    lines.append("")
-    return "\n".join(lines)
