@@ -149,6 +149,24 @@ def cantilever_figures(root: Path) -> list[Figure]:
     return out
 
 
+def contact_figure(root: Path) -> list[Figure]:
+    """The contact rows of the stability matrix: how many cells ran to their end."""
+    data = _read_json(root, REPORT)
+    cells = data.get("contact") or []
+    if not cells:
+        return []
+    ok = sum(c.get("outcome") in ("stable", "guarded") for c in cells)
+    failed = sum(c.get("outcome") == "failed" for c in cells)
+    made = data.get("contact_written") or data
+    when = f", {str(made['date'])[:10]}" if made.get("date") else ""
+    return [Figure(
+        f"Contact stability: cloth on edges, rims, corners and a floor (3 fabrics, both "
+        f"integrators{when})",
+        f"{ok} of {len(cells)} runs stable or guarded, {failed} failed",
+        "python -m sandbox report --only contact", REPORT,
+    )]  # fmt: skip
+
+
 _STEP_ROW = re.compile(r"^\s*(\d+)\s+(\d+)\s+(\d+)\s+([\d.]+)\s+([\d.]+)\s*$")
 
 
@@ -190,6 +208,7 @@ def figures(root: Path | str = ".") -> list[Figure]:
                          "--out docs/gallery-implicit"),
         demo_figure(root),
         *cantilever_figures(root),
+        *contact_figure(root),
         step_figure(root),
     ]  # fmt: skip
 
