@@ -135,11 +135,22 @@ class AcceptanceConfig:
                         fold_tolerance_pct=self.fold_tolerance_pct)  # fmt: skip
 
 
+DRAPE_METHODS = ("explicit", "coarse_to_fine")
+
+
 @dataclass(frozen=True)
 class DrapeConfig:
     """A garment drape: the simulation's settings, and those of its sewing, repair and
     acceptance. The defaults are the gallery's."""
 
+    method: str = "explicit"
+    """How the rest shape is reached: ``"explicit"`` sews and drapes the mesh itself;
+    ``"coarse_to_fine"`` sews and drapes a ``coarse_edge_m`` mesh of the same panels first,
+    carries its shape to the fine mesh through the pattern coordinates and lets the fine mesh
+    settle (:mod:`sandbox.garment.multilevel`)."""
+    coarse_edge_m: float = 0.03
+    """Mesh edge [m] of ``coarse_to_fine``'s first level (used only when the drape's own mesh
+    is finer)."""
     integrator: str = "symplectic_euler"
     """``"symplectic_euler"`` (the paper's Eq. 2) or ``"implicit_euler"`` (backward Euler)."""
     dt_s: float | None = None
@@ -179,6 +190,10 @@ class DrapeConfig:
     acceptance: AcceptanceConfig = field(default_factory=AcceptanceConfig)
 
     def __post_init__(self):
+        if self.method not in DRAPE_METHODS:
+            raise SandboxError(f"method must be one of {', '.join(DRAPE_METHODS)}, got "
+                               f"{self.method!r}")  # fmt: skip
+        _check_positive("DrapeConfig", coarse_edge_m=self.coarse_edge_m)
         if self.integrator not in INTEGRATORS:
             raise SandboxError(f"integrator must be symplectic_euler or implicit_euler, got "
                                f"{self.integrator!r}")  # fmt: skip

@@ -1,0 +1,170 @@
+"""Gallery speed: each library garment at 1 cm, size 12, its own fabric, timed and compared
+with the reference drapes.
+
+Usage:
+    python benchmarks/bench_gallery_speed.py [GARMENT ...] [--method coarse_to_fine]
+    python benchmarks/bench_gallery_speed.py --reference [GARMENT ...]
+
+``--reference`` drapes with the paper's symplectic Euler all the way at 1 cm (the
+``explicit`` method) and stores each garment's final positions, rounded to 0.1 mm, in
+``benchmarks/reference/GARMENT.npz`` with its metrics in ``reference.json``. Without it, each
+garment is draped with ``--method`` and compared with its reference: ease at bust, waist
+and hip, hem height (the garment's lowest point) and the vertex distance to the reference
+(mean and 95th percentile; the same 1 cm mesh, vertex for vertex). The table goes to
+``benchmarks/results/gallery_speed.md`` (and ``.json``), with the machine it ran on.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+REFERENCE = HERE / "reference"
+RESULTS = HERE / "results"
+QUANTUM_M = 1e-4  # stored positions are rounded to 0.1 mm
+
+
+def _drape(garment: str, method: str):
+    from sandbox.garment import DrapeConfig, drape
+
+    config = DrapeConfig(method=method)
+    out = Path("/tmp") / f"gallery_speed_{os.getpid()}" / garment
+    return drape(garment, size=12, out_dir=out, edge_length_m=0.01, config=config,
+                 render=False, meshes=False, progress=False)  # fmt: skip
+
+
+def _summary(metrics: dict, x: np.ndarray, wall_s: float) -> dict:
+    keys = ("vertex_count", "meets_acceptance", "sew_wall_time_s", "wall_time_s",
+            "ease_bust_cm", "ease_waist_cm", "ease_hip_cm", "seam_gap_max_m",
+            "residual_max_over_weight", "residual_mean_over_weight", "coarse_wall_time_s")
+    row = {k: metrics.get(k) for k in keys}
+    row["total_s"] = wall_s
+    row["hem_height_m"] = float(x[:, 1].min())
+    return row
+
+
+def write_reference(garments: list[str]) -> None:
+    REFERENCE.mkdir(exist_ok=True)
+    index_path = REFERENCE / "reference.json"
+    index = json.loads(index_path.read_text()) if index_path.exists() else {}
+    for g in garments:
+        t0 = time.perf_counter()
+        r = _drape(g, "explicit")
+        wall = time.perf_counter() - t0
+        x = r.scene.state.positions().astype(np.float64)
+        q = np.round(x / QUANTUM_M).astype(np.int32)
+        tmp = REFERENCE / f".{g}.npz"
+        with open(tmp, "wb") as fh:
+            np.savez_compressed(fh, positions_01mm=q)
+        tmp.replace(REFERENCE / f"{g}.npz")
+        index[g] = _summary(r.metrics, x, wall)
+        print(g, json.dumps(index[g]), flush=True)
+        tmp = index_path.with_suffix(".tmp")
+        tmp.write_text(json.dumps(index, indent=1, sort_keys=True))
+        tmp.replace(index_path)
+
+
+def load_reference(garment: str) -> np.ndarray:
+    """The reference's final positions of ``garment``, (n, 3) [m]."""
+    with np.load(REFERENCE / f"{garment}.npz") as z:
+        return z["positions_01mm"].astype(np.float64) * QUANTUM_M
+
+
+def compare(garments: list[str], method: str) -> list[dict]:
+    ref_index = json.loads((REFERENCE / "reference.json").read_text())
+    rows = []
+    for g in garments:
+        t0 = time.perf_counter()
+        r = _drape(g, method)
+        wall = time.perf_counter() - t0
+        x = r.scene.state.positions().astype(np.float64)
+        row = {"garment": g, **_summary(r.metrics, x, wall)}
+        ref = ref_index.get(g)
+        if ref is not None:
+            xr = load_reference(g)
+            d = np.linalg.norm(x - xr, axis=1) if xr.shape == x.shape else None
+            row["ref_total_s"] = ref["total_s"]
+            for k in ("ease_bust_cm", "ease_waist_cm", "ease_hip_cm"):
+                a, b = row.get(k), ref.get(k)
+                row[k.replace("_cm", "_delta_cm")] = None if a is None or b is None else a - b
+            row["hem_delta_cm"] = 100.0 * (row["hem_height_m"] - ref["hem_height_m"])
+            row["dist_mean_cm"] = None if d is None else 100.0 * float(d.mean())
+            row["dist_p95_cm"] = None if d is None else 100.0 * float(np.percentile(d, 95))
+        rows.append(row)
+        print(g, json.dumps(row), flush=True)
+    return rows
+
+
+def _fmt(v, spec):
+    return "–" if v is None else format(v, spec)
+
+
+def write_table(rows: list[dict], method: str) -> str:
+    totals = sorted(r["total_s"] for r in rows)
+    median = totals[len(totals) // 2] if len(totals) % 2 else 0.5 * sum(
+        totals[len(totals) // 2 - 1: len(totals) // 2 + 1])
+    lines = [
+        f"# Gallery speed: method `{method}`, 1 cm, size 12, each garment's own fabric",
+        "",
+        f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python "
+        f"{platform.python_version()}, {time.strftime('%Y-%m-%d')}. "
+        f"Command: `python benchmarks/bench_gallery_speed.py --method {method}`.",
+        "",
+        f"Median total {median:.1f} s, slowest {totals[-1]:.1f} s; "
+        f"{sum(bool(r['meets_acceptance']) for r in rows)} of {len(rows)} meet the acceptance.",
+        "",
+        "| garment | vertices | sewing s | drape s | total s | reference s | residual max / mean "
+        "| ease Δ bust / waist / hip cm | hem Δ cm | distance mean / 95 % cm | meets |",
+        "|---|---:|---:|---:|---:|---:|---|---|---:|---|---|",
+    ]
+    for r in rows:
+        ease = " / ".join(_fmt(r.get(k), "+.2f") for k in
+                          ("ease_bust_delta_cm", "ease_waist_delta_cm", "ease_hip_delta_cm"))
+        lines.append(
+            f"| {r['garment']} | {r['vertex_count']} | {_fmt(r['sew_wall_time_s'], '.1f')} "
+            f"| {_fmt(r['wall_time_s'], '.1f')} | {r['total_s']:.1f} "
+            f"| {_fmt(r.get('ref_total_s'), '.0f')} "
+            f"| {_fmt(r['residual_max_over_weight'], '.2f')} / "
+            f"{_fmt(r['residual_mean_over_weight'], '.3f')} | {ease} "
+            f"| {_fmt(r.get('hem_delta_cm'), '+.2f')} "
+            f"| {_fmt(r.get('dist_mean_cm'), '.2f')} / {_fmt(r.get('dist_p95_cm'), '.2f')} "
+            f"| {'yes' if r['meets_acceptance'] else 'no'} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("garments", nargs="*")
+    ap.add_argument("--reference", action="store_true",
+                    help="drape the references (explicit at 1 cm) and store them")
+    ap.add_argument("--method", default="coarse_to_fine")
+    ap.add_argument("--tag", default=None, help="results file suffix (default: the method)")
+    args = ap.parse_args()
+    from sandbox import runtime
+    from sandbox.garment import garment_names
+
+    runtime.init("cpu")
+    garments = args.garments or garment_names()
+    if args.reference:
+        write_reference(garments)
+        return
+    rows = compare(garments, args.method)
+    RESULTS.mkdir(exist_ok=True)
+    tag = args.tag or args.method
+    (RESULTS / f"gallery_speed_{tag}.json").write_text(json.dumps(rows, indent=1))
+    table = write_table(rows, args.method)
+    (RESULTS / f"gallery_speed_{tag}.md").write_text(table)
+    sys.stdout.write(table)
+
+
+if __name__ == "__main__":
+    main()
