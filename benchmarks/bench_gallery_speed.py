@@ -42,9 +42,19 @@ def _drape(garment: str, method: str):
 
 
 def _summary(metrics: dict, x: np.ndarray, wall_s: float) -> dict:
-    keys = ("vertex_count", "meets_acceptance", "sew_wall_time_s", "wall_time_s",
-            "ease_bust_cm", "ease_waist_cm", "ease_hip_cm", "seam_gap_max_m",
-            "residual_max_over_weight", "residual_mean_over_weight", "coarse_wall_time_s")
+    keys = (
+        "vertex_count",
+        "meets_acceptance",
+        "sew_wall_time_s",
+        "wall_time_s",
+        "ease_bust_cm",
+        "ease_waist_cm",
+        "ease_hip_cm",
+        "seam_gap_max_m",
+        "residual_max_over_weight",
+        "residual_mean_over_weight",
+        "coarse_wall_time_s",
+    )
     row = {k: metrics.get(k) for k in keys}
     row["total_s"] = wall_s
     row["hem_height_m"] = float(x[:, 1].min())
@@ -109,8 +119,11 @@ def _fmt(v, spec):
 
 def write_table(rows: list[dict], method: str) -> str:
     totals = sorted(r["total_s"] for r in rows)
-    median = totals[len(totals) // 2] if len(totals) % 2 else 0.5 * sum(
-        totals[len(totals) // 2 - 1: len(totals) // 2 + 1])
+    median = (
+        totals[len(totals) // 2]
+        if len(totals) % 2
+        else 0.5 * sum(totals[len(totals) // 2 - 1 : len(totals) // 2 + 1])
+    )
     lines = [
         f"# Gallery speed: method `{method}`, 1 cm, size 12, each garment's own fabric",
         "",
@@ -126,8 +139,10 @@ def write_table(rows: list[dict], method: str) -> str:
         "|---|---:|---:|---:|---:|---:|---|---|---:|---|---|",
     ]
     for r in rows:
-        ease = " / ".join(_fmt(r.get(k), "+.2f") for k in
-                          ("ease_bust_delta_cm", "ease_waist_delta_cm", "ease_hip_delta_cm"))
+        ease = " / ".join(
+            _fmt(r.get(k), "+.2f")
+            for k in ("ease_bust_delta_cm", "ease_waist_delta_cm", "ease_hip_delta_cm")
+        )
         lines.append(
             f"| {r['garment']} | {r['vertex_count']} | {_fmt(r['sew_wall_time_s'], '.1f')} "
             f"| {_fmt(r['wall_time_s'], '.1f')} | {r['total_s']:.1f} "
@@ -144,8 +159,11 @@ def write_table(rows: list[dict], method: str) -> str:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("garments", nargs="*")
-    ap.add_argument("--reference", action="store_true",
-                    help="drape the references (explicit at 1 cm) and store them")
+    ap.add_argument(
+        "--reference",
+        action="store_true",
+        help="drape the references (explicit at 1 cm) and store them",
+    )
     ap.add_argument("--method", default="coarse_to_fine")
     ap.add_argument("--tag", default=None, help="results file suffix (default: the method)")
     args = ap.parse_args()

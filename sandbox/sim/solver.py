@@ -17,6 +17,7 @@ launch, serially, which is faster for small meshes where launch overhead dominat
 use the same per-element functions.
 """
 
+import numpy as np
 import taichi as ti
 
 from sandbox import runtime
@@ -152,6 +153,14 @@ class SymplecticEulerSolver:
         self._forces_kernel(state.x, state.v, control.gravity, control.damping_per_s)
         return self.force.to_numpy()[: self.model.particle_count]
 
+    def static_forces(self, x, gravity) -> np.ndarray:
+        """The forces of the cloth at rest at positions ``x`` (a Taichi vector field, e.g.
+        ``state.x``) [N], numpy (n, 3): membrane (Eq. 6-8), bending (Eq. 7-8), seams and
+        ``gravity`` (a 0-D vector field [m/s^2]) times the mass; no damping of any kind, which
+        vanishes at rest. Pinned particles get their forces too."""
+        self._static_forces_kernel(x, gravity)
+        return self.force.to_numpy()[: self.model.particle_count].astype("float64")
+
     def internal_energy(self, state: State) -> float:
         """U = Σ (U_u + U_v + U_s) + Σ U_b of Eq. 7 [J]."""
         self.energy[None] = 0.0
@@ -220,6 +229,14 @@ class SymplecticEulerSolver:
             self.force[i] = f
 
     @ti.kernel
+    def _static_forces_kernel(self, x: ti.template(), gravity: ti.template()):
+        self._membrane_forces(x, x, False)
+        self._bending_forces(x)
+        self._seam_forces(x)
+        for i in range(self.model.particle_count):
+            self.force[i] = self._gathered_force(i) + self.model.particle_mass[i] * gravity[None]
+
+    @ti.kernel
     def _energy_kernel(self, x: ti.template()):
         m = self.model
         for t in range(m.tri_count):
@@ -242,14 +259,14 @@ class SymplecticEulerSolver:
     # ------------------------------------------------------------------ per-step pieces
     @ti.func
     def _element_forces(self, x, v):
-        self._membrane_forces(x, v)
+        self._membrane_forces(x, v, True)
         self._bending_forces(x)
         self._seam_forces(x)
 
     @ti.func
-    def _membrane_forces(self, x, v):
+    def _membrane_forces(self, x, v, damped: ti.template()):
         """Eq. 6-8: membrane forces of each triangle, into its three corner slots, plus its
-        strain-rate damping where ``model.strain_damping_s`` > 0."""
+        strain-rate damping where ``model.strain_damping_s`` > 0 and ``damped``."""
         m = self.model
         beta = m.strain_damping_s[None]
         for t in range(m.tri_count):
@@ -258,7 +275,7 @@ class SymplecticEulerSolver:
             f_u, f_v = forces.deformation_columns(x[i[0]], x[i[1]], x[i[2]], r)
             k = m.tri_stiffness[t]
             g_u, g_v = forces.eq8_membrane_gradient(f_u, f_v, m.tri_rest_area[t], k[0], k[1], k[2])
-            if beta > 0.0:
+            if ti.static(damped) and beta > 0.0:
                 r_u, r_v = forces.deformation_columns(v[i[0]], v[i[1]], v[i[2]], r)
                 d_u, d_v = forces.membrane_damping_gradient(
                     f_u, f_v, r_u, r_v, m.tri_rest_area[t], k[0], k[1], k[2], beta
