@@ -6,7 +6,7 @@ Usage:
     python benchmarks/bench_gallery_speed.py --reference [GARMENT ...]
 
 ``--reference`` drapes with the paper's symplectic Euler all the way at 1 cm (the
-``explicit`` method) and stores each garment's final positions, rounded to 0.1 mm, in
+``direct`` method) and stores each garment's final positions, rounded to 0.1 mm, in
 ``benchmarks/reference/GARMENT.npz`` with its metrics in ``reference.json``. Without it, each
 garment is draped with ``--method`` and compared with its reference: ease at bust, waist
 and hip, hem height (the garment's lowest point) and the vertex distance to the reference
@@ -67,7 +67,7 @@ def write_reference(garments: list[str]) -> None:
     index = json.loads(index_path.read_text()) if index_path.exists() else {}
     for g in garments:
         t0 = time.perf_counter()
-        r = _drape(g, "explicit")
+        r = _drape(g, "direct")
         wall = time.perf_counter() - t0
         x = r.scene.state.positions().astype(np.float64)
         q = np.round(x / QUANTUM_M).astype(np.int32)
@@ -162,7 +162,7 @@ def main() -> None:
     ap.add_argument(
         "--reference",
         action="store_true",
-        help="drape the references (explicit at 1 cm) and store them",
+        help="drape the references (the direct method: symplectic Euler at 1 cm) and store them",
     )
     ap.add_argument("--method", default="coarse_to_fine")
     ap.add_argument("--tag", default=None, help="results file suffix (default: the method)")

@@ -122,7 +122,9 @@ def build_drape(
         description=f"drape of {pattern.name} on the mannequin",
         simulation=SimulationSpec(integrator=config.integrator, dt_s=config.dt_s,
                                   frame_rate_hz=config.frame_rate_hz,
-                                  damping_per_s=config.damping_per_s, strain_damping_s=beta),
+                                  damping_per_s=config.damping_per_s, strain_damping_s=beta,
+                                  seam_damping_ratio=0.0 if config.implicit else
+                                  config.seam_damping_ratio),
         stop=StopSpec(max_displacement_m=config.stop_max_m,
                       mean_displacement_m=config.stop_mean_m, frames=1,
                       min_time_s=config.min_time_s, time_limit_s=config.time_limit_s,

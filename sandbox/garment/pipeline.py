@@ -18,6 +18,7 @@ from sandbox.garment.build import build_drape
 from sandbox.garment.config import DrapeConfig
 from sandbox.garment.inputs import make_mannequin, resolve_pattern
 from sandbox.garment.metrics import drape_metrics
+from sandbox.garment.multilevel import drape_coarse_to_fine
 from sandbox.garment.output import write_drape
 from sandbox.garment.repair import settle_repaired, untangle_state
 from sandbox.garment.sewing import sew
@@ -60,14 +61,27 @@ def drape(
     if mannequin is None:
         mannequin = make_mannequin(size, measurements)
     pattern = resolve_pattern(garment_or_path, mannequin)
-    t0 = time.perf_counter()
-    scene = build_drape(pattern, mannequin, fabric=fabric, edge_length_m=edge_length_m,
-                        config=config)  # fmt: skip
-    build_s = time.perf_counter() - t0
-    result = run_drape(scene, progress=progress)
+    config = config or DrapeConfig()
+    if config.method == "coarse_to_fine" and _finer(edge_length_m, pattern, config):
+        scene, result, build_s = drape_coarse_to_fine(
+            pattern, mannequin, fabric=fabric, edge_length_m=edge_length_m, config=config,
+            progress=progress)  # fmt: skip
+    else:
+        t0 = time.perf_counter()
+        scene = build_drape(pattern, mannequin, fabric=fabric, edge_length_m=edge_length_m,
+                            config=config)  # fmt: skip
+        build_s = time.perf_counter() - t0
+        result = run_drape(scene, progress=progress)
+        result.metrics["method"] = "direct"
     metrics = drape_metrics(scene, result, build_s=build_s)
     paths = write_drape(scene, result, metrics, out_dir, render=render, meshes=meshes)
     return DrapeResult(scene, result, metrics, paths)
+
+
+def _finer(edge_length_m: float | None, pattern, config: DrapeConfig) -> bool:
+    """Whether the drape's mesh is finer than the coarse level (else one level is enough)."""
+    edge = pattern.mesh_edge_m if edge_length_m is None else float(edge_length_m)
+    return edge < 0.75 * config.coarse_edge_m
 
 
 def run_drape(scene, *, progress: bool | None = None):

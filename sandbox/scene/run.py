@@ -137,6 +137,8 @@ def state_metrics(scene: Scene) -> dict:
     """What the run's final state and its solver report: Newton's totals (``newton``, implicit
     Euler only: since the solver was made or its stats reset, so a drape's include the
     sewing), the seam gap and the contact measures (:func:`contact_metrics`)."""
+    from sandbox.sim.residual import scene_residual
+
     model = scene.model
     out = {}
     s = scene.solver.stats()
@@ -146,6 +148,7 @@ def state_metrics(scene: Scene) -> dict:
             "factorisations")}  # fmt: skip
         out["newton"]["max_residual_force_over_weight"] = float(s["max_residual_force_over_weight"])
     x_final = scene.state.positions()
+    out.update(scene_residual(scene))
     if model.seam_count:
         out["seam_count"] = model.seam_count
         out["seam_gap_max_m"] = seam_gap_max(model, x_final)

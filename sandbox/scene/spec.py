@@ -61,6 +61,7 @@ class SimulationSpec:
     gravity_m_s2: tuple[float, float, float] = (0.0, -9.80665, 0.0)
     damping_per_s: float = 0.5
     strain_damping_s: float = 0.0  # the membrane's strain-rate damping β [s]; explicit only
+    seam_damping_ratio: float = 0.0  # ζ of each seam spring's dashpot; explicit only
     bending: bool = True
     linear_solver: str = "auto"  # implicit_euler only: "auto", "direct" or "cg"
 
@@ -185,7 +186,8 @@ def scene_from_dict(data: dict, *, source: str = "<scene>") -> SceneSpec:
 def _simulation(r: _Reader, t: dict) -> SimulationSpec:
     w = "[simulation]"
     r.keys(t, w, {"integrator", "dt_s", "frame_rate_hz", "gravity_m_s2", "damping_per_s",
-                  "strain_damping_s", "bending", "linear_solver"})  # fmt: skip
+                  "strain_damping_s", "seam_damping_ratio", "bending",
+                  "linear_solver"})  # fmt: skip
     s = SimulationSpec()
     s.integrator = r.choice(t, w, "integrator", INTEGRATORS, s.integrator)
     dt = t.get("dt_s", "auto")
@@ -197,6 +199,11 @@ def _simulation(r: _Reader, t: dict) -> SimulationSpec:
     if s.strain_damping_s > 0 and s.integrator != "symplectic_euler":
         raise SandboxError(f"{r.source}: {w} strain_damping_s is for symplectic_euler only "
                            f"(backward Euler damps the fast modes itself)")  # fmt: skip
+    s.seam_damping_ratio = r.number(t, w, "seam_damping_ratio", s.seam_damping_ratio,
+                                    minimum=0.0)  # fmt: skip
+    if s.seam_damping_ratio > 1.0:
+        raise SandboxError(f"{r.source}: {w} seam_damping_ratio must be at most 1 (critical "
+                           f"damping), got {s.seam_damping_ratio}")  # fmt: skip
     s.bending = r.boolean(t, w, "bending", s.bending)
     s.linear_solver = r.choice(t, w, "linear_solver", LINEAR_SOLVERS, s.linear_solver)
     if s.dt_s is not None and s.dt_s > 1.0 / s.frame_rate_hz:

@@ -114,6 +114,10 @@ class Model:
         self.strain_damping_s = ti.field(float, shape=())
         """Strain-rate damping β [s] of the membrane (:func:`~sandbox.sim.forces.
         membrane_damping_gradient`; 0 = off, the default). A 0-D field: set it any time."""
+        self.seam_damping_ratio = ti.field(float, shape=())
+        """Damping ratio ζ of each seam spring's dashpot, c = 2 ζ √(k μ) with μ the pair's
+        reduced mass (0 = off, the default). Without it a stiff seam pair rings at a few
+        steps' period for ever, unseen by a stop rule that samples once a frame."""
         inv_mass = np.where(pinned, 0.0, 1.0 / np.maximum(mass, 1e-30))
         if n:
             self.particle_mass.from_numpy(_f(mass))

@@ -308,8 +308,9 @@ class SymplecticEulerSolver:
 
     @ti.func
     def _seam_forces(self, x):
+        """§2.4: seam springs U = k/2 (|x_a − x_b| − r)^2, F_a = −k (|d| − r) d/|d|. Their
+        dashpots act in the velocity update (:meth:`_free_velocity`)."""
         m = self.model
-        # §2.4: seam springs U = k/2 (|x_a − x_b| − r)^2, F_a = −k (|d| − r) d/|d|
         if ti.static(m.has_seams):
             for q in range(m.seam_active[None]):
                 a, b = m.seam_pairs[q][0], m.seam_pairs[q][1]
@@ -358,12 +359,42 @@ class SymplecticEulerSolver:
         if w > 0.0:
             f = self._gathered_force(i)
             v_new = v_in[i] + dt * (f * w + gravity[None] - damping[None] * v_in[i])
+            if ti.static(m.has_seams):
+                v_new = self._seam_dashpots(i, v_in, v_new, dt)
             limit = self.speed_limit[None]
             if limit > 0.0:
                 speed = v_new.norm()
                 if speed > limit:
                     v_new *= limit / speed
         return v_new
+
+    @ti.func
+    def _seam_dashpots(self, i, v_in, v_new, dt):
+        """The dashpots of particle i's seam springs, implicit in its own velocity: each
+        spring q to particle j adds F = −c_q (v_i(t+dt) − v_j(t)), c_q = 2 ζ √(k_q μ) with μ
+        the pair's reduced mass and ζ = ``model.seam_damping_ratio``, so
+        v_i(t+dt) = (v* + Σ κ_q v_j) / (1 + Σ κ_q), κ_q = c_q dt / m_i, where v* is the
+        undamped update. A weighted mean of velocities: stable at any step, however stiff
+        the seam, and it conserves the pair's momentum up to the partner's lag of one step."""
+        m = self.model
+        zeta = m.seam_damping_ratio[None]
+        out = v_new
+        if zeta > 0.0:
+            mi = m.particle_mass[i]
+            kappa_sum = 0.0
+            pull = ti.Vector([0.0, 0.0, 0.0])
+            for k in range(m.vert_seam_start[i], m.vert_seam_start[i + 1]):
+                slot = m.vert_seam_slot[k]
+                q = slot // 2
+                if q < m.seam_active[None]:
+                    j = m.seam_pairs[q][1 - slot % 2]
+                    mj = m.particle_mass[j]
+                    mu = mi * mj / ti.max(mi + mj, 1e-30)
+                    kappa = 2.0 * zeta * ti.sqrt(ti.max(m.seam_stiffness[q], 0.0) * mu) * dt / mi
+                    kappa_sum += kappa
+                    pull += kappa * v_in[j]
+            out = (v_new + pull) / (1.0 + kappa_sum)
+        return out
 
     @ti.func
     def _contact(self, i, x_in, v_new, dt):

@@ -1,0 +1,144 @@
+"""Coarse to fine: drape on a coarse mesh, carry its rest shape to the fine mesh, settle there.
+
+A drape is a search for a rest shape. Most of its simulated time goes into gross motion
+(seams closing, panels wrapping, the garment dropping onto the shoulders or hips), which a
+coarse mesh resolves at a fraction of the cost: fewer vertices and a longer stable step
+(the explicit step grows with the edge length). Every mesh of a panel is a triangulation of
+the same pattern piece, so a point of the fine mesh has pattern coordinates inside the
+coarse mesh of its panel, and the coarse drape's positions carry over by the barycentric
+coordinates of that point (:func:`transfer_positions`). On the fine mesh only local
+settling is left: the same solver, the same stop rule, from a state that is almost at rest.
+
+pattern + mannequin -> ``build_drape`` at ``config.coarse_edge_m`` -> ``run_drape`` (sew,
+drape) -> ``build_drape`` at the requested edge -> :func:`transfer_positions` ->
+``untangle_state`` -> ``run_scene`` -> ``settle_repaired``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+
+from sandbox.garment.build import build_drape
+
+
+def barycentric_locate(points: np.ndarray, uv: np.ndarray, triangles: np.ndarray,
+                       chunk: int = 2048) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """The triangle of a 2D mesh each point lies in, and its barycentric coordinates.
+
+    Args:
+        points: (p, 2) query points [m].
+        uv: (n, 2) the mesh's vertices [m]; ``triangles``: (m, 3) vertex indices.
+    Returns ``(tri (p,) int, bary (p, 3))``. A point outside the mesh (a curved outline
+    discretised differently by two meshes) gets the triangle it is least outside of, its
+    coordinates clamped to >= 0 and renormalised: the nearest point of that triangle, near
+    enough where the two outlines differ by a fraction of an edge.
+    """
+    points = np.asarray(points, np.float64)
+    a, b, c = (uv[triangles[:, k]] for k in range(3))
+    e1, e2 = b - a, c - a
+    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    det = np.where(np.abs(det) > 1e-300, det, 1e-300)
+    tri = np.empty(len(points), np.int64)
+    bary = np.empty((len(points), 3))
+    for s in range(0, len(points), chunk):
+        d = points[s : s + chunk, None, :] - a[None]  # (q, m, 2)
+        l1 = (d[..., 0] * e2[:, 1] - d[..., 1] * e2[:, 0]) / det
+        l2 = (e1[:, 0] * d[..., 1] - e1[:, 1] * d[..., 0]) / det
+        lam = np.stack([1.0 - l1 - l2, l1, l2], axis=-1)  # (q, m, 3)
+        best = np.argmax(lam.min(axis=-1), axis=1)
+        tri[s : s + chunk] = best
+        bary[s : s + chunk] = lam[np.arange(len(best)), best]
+    bary = np.clip(bary, 0.0, None)
+    bary /= bary.sum(axis=1, keepdims=True)
+    return tri, bary
+
+
+def transfer_positions(coarse, fine) -> np.ndarray:
+    """The coarse scene's current positions carried to the fine scene's vertices, (n, 3) [m].
+
+    Both scenes are drapes of the same pattern (:func:`build_drape`); each fine vertex takes
+    the barycentric combination of the coarse triangle its pattern coordinates lie in, in
+    the same panel.
+    """
+    xc = coarse.state.positions().astype(np.float64)
+    out = np.empty((fine.model.particle_count, 3))
+    coarse_pieces = {p.name: p for p in coarse.model.pieces}
+    tri_c = coarse.model.tri_indices_np
+    for piece in fine.model.pieces:
+        cp = coarse_pieces[piece.name]
+        uv_c = coarse.garment.meshes[piece.name].points
+        uv_f = fine.garment.meshes[piece.name].points
+        tris = tri_c[cp.tri_start : cp.tri_start + cp.tri_count] - cp.particle_start
+        t, w = barycentric_locate(uv_f, uv_c, tris)
+        corners = xc[cp.particle_start + tris[t]]  # (p, 3, 3)
+        out[piece.particle_start : piece.particle_start + piece.particle_count] = np.einsum(
+            "pk,pkd->pd", w, corners
+        )
+    return out
+
+
+def drape_coarse_to_fine(pattern, mannequin, *, fabric=None, edge_length_m: float | None,
+                         config, progress: bool | None = None):  # fmt: skip
+    """Sew and drape on a ``config.coarse_edge_m`` mesh, then settle on the ``edge_length_m``
+    mesh from the carried-over shape (module docstring).
+
+    Returns ``(fine scene, RunResult, build_s)``: the fine run's result, whose metrics also
+    hold the coarse stage (``coarse_*`` keys: its vertices, simulated and wall time, build
+    time, steps) and the totals over both stages (``total_wall_time_s``, ``sim_time_s``).
+    The sewing keys are the coarse stage's.
+    """
+    from sandbox.garment.pipeline import run_drape
+    from sandbox.garment.repair import settle_repaired, untangle_state
+    from sandbox.scene.run import run_scene
+
+    t0 = time.perf_counter()
+    coarse = build_drape(pattern, mannequin, fabric=fabric, edge_length_m=config.coarse_edge_m,
+                         config=config)  # fmt: skip
+    coarse_build_s = time.perf_counter() - t0
+    coarse_result = run_drape(coarse, progress=progress)
+    cm = coarse_result.metrics
+
+    t1 = time.perf_counter()
+    fine = build_drape(pattern, mannequin, fabric=fabric, edge_length_m=edge_length_m,
+                       config=config)  # fmt: skip
+    x = transfer_positions(coarse, fine)
+    fine.state.set(x, np.zeros_like(x))
+    build_s = time.perf_counter() - t1
+    repairs = [untangle_state(fine, "after the coarse drape", config.repair)]
+    collider = fine.solver.self_collider
+    if collider is not None and fine.model.seam_count:
+        # the seams arrive closed: the panels beside them are kept apart at once
+        collider.set_seam_partners(fine.model.seam_pairs_np, neighbours=False)
+    stop = fine.spec.stop
+    fine.spec = dataclasses.replace(fine.spec, stop=dataclasses.replace(
+        stop, min_time_s=config.fine_min_time_s))  # fmt: skip
+    try:
+        result = run_scene(fine, progress=progress)
+        result = settle_repaired(fine, result, repairs, config.repair, progress=progress)
+    finally:
+        fine.spec = dataclasses.replace(fine.spec, stop=stop)
+    m = result.metrics
+    coarse_wall = coarse_build_s + cm["total_wall_time_s"]
+    m.update({k: cm[k] for k in cm if k.startswith("sew_")})
+    m.update(
+        method="coarse_to_fine",
+        coarse_edge_length_m=config.coarse_edge_m,
+        coarse_vertex_count=cm["vertex_count"],
+        coarse_steps=cm["steps"],
+        coarse_dt_s=cm["dt_s"],
+        coarse_sim_time_s=cm["sim_time_s"] + cm.get("sew_sim_time_s", 0.0),
+        coarse_converged=cm["converged"],
+        coarse_wall_time_s=coarse_wall,
+        coarse_untangle=cm["untangle"],
+        fine_sim_time_s=m["sim_time_s"],
+        fine_wall_time_s=m["wall_time_s"],
+        fine_steps=m["steps"],
+        untangle=repairs,
+        untangled_pairs=sum(r["pairs_before"] - r["pairs_after"] for r in repairs),
+        strain_damping_s=float(fine.model.strain_damping_s[None]),
+        total_wall_time_s=coarse_wall + build_s + m["wall_time_s"],
+    )
+    return fine, result, coarse_build_s + build_s

@@ -1,0 +1,142 @@
+"""The equilibrium residual: how far a state is from rest, as a force, whatever the solver.
+
+A stop rule on displacement can be fooled: heavy damping slows the cloth down before it
+reaches rest. The residual cannot: at rest every free vertex's net force is zero, up to what
+contact can carry. Here it is measured per free vertex i, in units of its own weight:
+
+    f_i = elastic (Eq. 6-8 membrane, Eq. 7-8 bending) + seam springs + m_i g   (no damping)
+    r_i = |f_i|                                  away from the body
+    r_i = max(0, |f_t| − μ_s |f_n|)              within reach of the body and f_i·n < 0
+
+where n is the outward normal of the nearest body face within reach, f_n = f_i·n (pushing
+the vertex into the body, which the body's reaction cancels) and f_t the rest of f_i
+(which static friction holds up to μ_s |f_n|: Coulomb's cone, Bridson et al. 2002). In a
+concave crease (an armpit) the vertex leans on two faces, and the reaction may be any
+non-negative combination of their normals. ``r_i / (m_i |g|)``
+is 1 for a vertex in free fall and 0 at rest. Cloth-on-cloth contact is not modelled as a
+support: a vertex resting on another layer shows its share of that layer's reaction.
+"""
+
+
+import weakref
+
+import numpy as np
+import taichi as ti
+
+CONTACT_REACH = 2.0
+"""A vertex within this many contact thicknesses of the body can lean on it."""
+
+
+def contact_normals(collider, x: np.ndarray, reach_m: float):
+    """The body planes each point leans on: ``(count (n,), n1 (n, 3), n2 (n, 3))`` from the
+    collider's own query (:meth:`~sandbox.collision.body.BodyCollider.contact_planes`: the
+    nearest face within ``reach_m`` [m] and, in a concave crease, a second one)."""
+    x = np.ascontiguousarray(x, np.float64)
+    out = np.zeros((len(x), 7), np.float64)
+    if len(x):
+        _planes_kernel(collider, x, float(reach_m), out)
+    return out[:, 0].astype(np.int64), out[:, 1:4], out[:, 4:7]
+
+
+@ti.kernel
+def _planes_kernel(body: ti.template(), x: ti.types.ndarray(), reach: float,
+                   out: ti.types.ndarray()):  # fmt: skip
+    for i in range(x.shape[0]):
+        p = ti.Vector([x[i, 0], x[i, 1], x[i, 2]])
+        count, n1, _, n2, _ = body.contact_planes(p, reach)
+        out[i, 0] = count
+        for k in ti.static(range(3)):
+            out[i, 1 + k] = n1[k]
+            out[i, 4 + k] = n2[k]
+
+
+def _supported(f: np.ndarray, n1: np.ndarray, n2: np.ndarray, count: np.ndarray, mu: float):
+    """What is left of forces f (n, 3) once the planes (normals n1, n2; ``count`` of them,
+    0-2) push back and static friction holds: min over the planes' active sets of
+    max(0, |f + N| − μ|N|), N ≥ 0 along the active normals (the normal reaction cancels the
+    part of f pressing into them)."""
+    best = np.linalg.norm(f, axis=1)
+    for normals in ((n1,), (n2,), (n1, n2)):
+        if len(normals) == 1:
+            n = normals[0]
+            lam = -np.einsum("ij,ij->i", f, n)
+            ok = lam > 0.0
+            reaction = lam[:, None] * n
+            load = lam
+        else:
+            g11 = np.einsum("ij,ij->i", n1, n1)
+            g12 = np.einsum("ij,ij->i", n1, n2)
+            g22 = np.einsum("ij,ij->i", n2, n2)
+            b1, b2 = -np.einsum("ij,ij->i", f, n1), -np.einsum("ij,ij->i", f, n2)
+            det = g11 * g22 - g12 * g12
+            safe = np.where(np.abs(det) > 1e-9, det, 1.0)
+            l1 = (b1 * g22 - b2 * g12) / safe
+            l2 = (g11 * b2 - g12 * b1) / safe
+            ok = (np.abs(det) > 1e-9) & (l1 > 0.0) & (l2 > 0.0) & (count >= 2)
+            reaction = l1[:, None] * n1 + l2[:, None] * n2
+            load = np.linalg.norm(reaction, axis=1)
+        if normals[0] is n2 and len(normals) == 1:
+            ok &= count >= 2
+        else:
+            ok &= count >= 1
+        left = np.maximum(0.0, np.linalg.norm(f + reaction, axis=1) - mu * load)
+        best = np.where(ok, np.minimum(best, left), best)
+    return best
+
+
+def equilibrium_residual(model, x: np.ndarray, forces: np.ndarray, gravity) -> dict:
+    """The residual of a state, per free vertex, over its weight (module docstring).
+
+    Args:
+        model: the Model (masses, pinned particles, body colliders with their thickness
+            and static friction μ_s).
+        x: (n, 3) positions [m]; ``forces``: (n, 3) the undamped forces at ``x`` with gravity
+            [N] (``SymplecticEulerSolver.static_forces``); ``gravity``: (3,) [m/s^2].
+    Returns ``{"residual_max_over_weight", "residual_mean_over_weight",
+    "residual_p99_over_weight", "residual_argmax", "residual_contact_vertices"}``.
+    """
+    x = np.asarray(x, np.float64)
+    f = np.asarray(forces, np.float64).copy()
+    mass = model.particle_mass.to_numpy()[: len(x)].astype(np.float64)
+    free = model.particle_inv_mass.to_numpy()[: len(x)] > 0
+    g = float(np.linalg.norm(gravity))
+    r = np.linalg.norm(f, axis=1)
+    touching = np.zeros(len(x), bool)
+    for c in model.colliders:
+        count, n1, n2 = contact_normals(c, x, CONTACT_REACH * float(c.thickness[None]))
+        left = _supported(f, n1, n2, count, float(c.mu_s[None]))
+        touching |= left < r
+        r = np.minimum(r, left)
+    weight = mass * g if g > 0 else np.ones_like(mass)
+    ratio = np.where(free, r / np.maximum(weight, 1e-300), 0.0)
+    sel = ratio[free]
+    if not len(sel):
+        return {"residual_max_over_weight": 0.0, "residual_mean_over_weight": 0.0,
+                "residual_p99_over_weight": 0.0, "residual_argmax": None,
+                "residual_contact_vertices": 0}  # fmt: skip
+    return {
+        "residual_max_over_weight": float(sel.max()),
+        "residual_mean_over_weight": float(sel.mean()),
+        "residual_p99_over_weight": float(np.percentile(sel, 99)),
+        "residual_argmax": int(np.argmax(ratio)),
+        "residual_contact_vertices": int(touching.sum()),
+    }
+
+
+def scene_residual(scene) -> dict:
+    """:func:`equilibrium_residual` of a scene's current state. A scene whose solver has no
+    undamped force evaluation (implicit Euler) gets one from a symplectic Euler solver of
+    the same model, made once."""
+    solver = scene.solver
+    if not hasattr(solver, "static_forces"):
+        solver = _FORCE_SOLVERS.get(scene.model)
+        if solver is None:
+            from sandbox.sim.solver import SymplecticEulerSolver
+
+            solver = _FORCE_SOLVERS[scene.model] = SymplecticEulerSolver(scene.model)
+    f = solver.static_forces(scene.state.x, scene.control.gravity)
+    g = np.asarray(scene.control.gravity[None].to_numpy(), np.float64)
+    return equilibrium_residual(scene.model, scene.state.positions(), f, g)
+
+
+_FORCE_SOLVERS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
