@@ -59,6 +59,8 @@ def build_drape(
     config: DrapeConfig | None = None,
     sew_pattern: bool = True,
     seam_capacity: int = 0,
+    place=None,
+    like=None,
 ):
     """Mesh, place and sew a pattern on the mannequin: a Scene for ``run_scene``.
 
@@ -71,6 +73,10 @@ def build_drape(
         sew_pattern: sew the pattern's seams (False: the panels start unsewn, for the
             interactive sandbox's click-to-sew, :func:`seam_springs`).
         seam_capacity: room for this many more seam springs, sewn while the scene runs.
+        place: ``place(meshes) -> {panel name: (n, 3) positions [m]}`` instead of placing
+            the panels on the body (a coarse drape's placement carried to this mesh).
+        like: a scene built by this function on the same mannequin, whose body collider
+            and placement body this one shares instead of making its own.
     Returns the Scene, with ``scene.garment`` its :class:`GarmentContext`.
     """
     # Taichi-backed modules load when a scene is built, not when the package is imported:
@@ -90,8 +96,8 @@ def build_drape(
         raise SandboxError(f"edge length must be a positive number of metres, got {edge_length_m}")
     material = material_for(pattern, fabric)
     meshes = mesh_pattern(pattern, edge_length_m)
-    body = PlacementBody(mannequin)
-    placed = place_pattern(pattern, meshes, body)
+    body = like.garment.placement_body if like is not None else PlacementBody(mannequin)
+    placed = place(meshes) if place is not None else place_pattern(pattern, meshes, body)
     runtime.ensure_init()
     builder = ModelBuilder()
     index = {}
@@ -133,12 +139,15 @@ def build_drape(
                                 self_collision=config.self_collision),
         source=pattern.source,
     )  # fmt: skip
-    model.colliders = [
-        BodyCollider(mannequin.vertices, mannequin.triangles, thickness_m=config.thickness_m,
-                     friction_static=spec.collision.friction_static,
-                     friction_kinetic=spec.collision.friction_kinetic, name="mannequin",
-                     closed=True)
-    ]  # fmt: skip
+    if like is not None:
+        model.colliders = list(like.model.colliders)
+    else:
+        model.colliders = [
+            BodyCollider(mannequin.vertices, mannequin.triangles, thickness_m=config.thickness_m,
+                         friction_static=spec.collision.friction_static,
+                         friction_kinetic=spec.collision.friction_kinetic, name="mannequin",
+                         closed=True)
+        ]  # fmt: skip
     model.self_collider = build_self_collider(model, spec)
     scene = scene_from_model(spec, model)
     warning = implicit_mesh_warning(config.integrator, edge)

@@ -56,6 +56,30 @@ def barycentric_locate(points: np.ndarray, uv: np.ndarray, triangles: np.ndarray
     return tri, bary
 
 
+def panel_maps(coarse_meshes: dict, fine_meshes: dict) -> dict:
+    """Where each fine vertex lies in its panel's coarse mesh: panel name -> ``(tri (p,),
+    bary (p, 3))`` (:func:`barycentric_locate` on the pattern coordinates)."""
+    return {name: barycentric_locate(fine.points, coarse_meshes[name].points,
+                                     coarse_meshes[name].triangles)
+            for name, fine in fine_meshes.items()}  # fmt: skip
+
+
+def carry(maps: dict, coarse_meshes: dict, coarse_x: dict) -> dict:
+    """Coarse panel positions (panel name -> (n_c, 3) [m]) carried to the fine meshes by
+    :func:`panel_maps`: panel name -> (n_f, 3) [m]."""
+    out = {}
+    for name, (tri, bary) in maps.items():
+        corners = np.asarray(coarse_x[name], np.float64)[coarse_meshes[name].triangles[tri]]
+        out[name] = np.einsum("pk,pkd->pd", bary, corners)
+    return out
+
+
+def panel_positions(scene, x: np.ndarray) -> dict:
+    """Positions (n, 3) of a scene's particles split by panel: name -> (n_panel, 3)."""
+    return {p.name: x[p.particle_start : p.particle_start + p.particle_count]
+            for p in scene.model.pieces}  # fmt: skip
+
+
 def transfer_positions(coarse, fine) -> np.ndarray:
     """The coarse scene's current positions carried to the fine scene's vertices, (n, 3) [m].
 
@@ -63,21 +87,9 @@ def transfer_positions(coarse, fine) -> np.ndarray:
     the barycentric combination of the coarse triangle its pattern coordinates lie in, in
     the same panel.
     """
-    xc = coarse.state.positions().astype(np.float64)
-    out = np.empty((fine.model.particle_count, 3))
-    coarse_pieces = {p.name: p for p in coarse.model.pieces}
-    tri_c = coarse.model.tri_indices_np
-    for piece in fine.model.pieces:
-        cp = coarse_pieces[piece.name]
-        uv_c = coarse.garment.meshes[piece.name].points
-        uv_f = fine.garment.meshes[piece.name].points
-        tris = tri_c[cp.tri_start : cp.tri_start + cp.tri_count] - cp.particle_start
-        t, w = barycentric_locate(uv_f, uv_c, tris)
-        corners = xc[cp.particle_start + tris[t]]  # (p, 3, 3)
-        out[piece.particle_start : piece.particle_start + piece.particle_count] = np.einsum(
-            "pk,pkd->pd", w, corners
-        )
-    return out
+    maps = panel_maps(coarse.garment.meshes, fine.garment.meshes)
+    moved = carry(maps, coarse.garment.meshes, panel_positions(coarse, coarse.state.positions()))
+    return np.vstack([moved[p.name] for p in fine.model.pieces])
 
 
 def drape_coarse_to_fine(pattern, mannequin, *, fabric=None, edge_length_m: float | None,
@@ -95,16 +107,30 @@ def drape_coarse_to_fine(pattern, mannequin, *, fabric=None, edge_length_m: floa
     from sandbox.scene.run import run_scene
 
     t0 = time.perf_counter()
+    coarse_config = dataclasses.replace(
+        config,
+        self_collision=config.coarse_self_collision,
+        sewing=dataclasses.replace(config.sewing, self_collision=config.coarse_self_collision),
+    )
     coarse = build_drape(pattern, mannequin, fabric=fabric, edge_length_m=config.coarse_edge_m,
-                         config=config)  # fmt: skip
+                         config=coarse_config)  # fmt: skip
     coarse_build_s = time.perf_counter() - t0
     coarse_result = run_drape(coarse, progress=progress)
     cm = coarse_result.metrics
 
     t1 = time.perf_counter()
+    maps = {}
+
+    def place(meshes):  # the coarse placement, carried: same seam directions, same folds
+        maps.update(panel_maps(coarse.garment.meshes, meshes))
+        return carry(maps, coarse.garment.meshes, coarse.garment.placed)
+
+    fine_config = dataclasses.replace(config, damping_per_s=config.fine_damping_per_s)
     fine = build_drape(pattern, mannequin, fabric=fabric, edge_length_m=edge_length_m,
-                       config=config)  # fmt: skip
-    x = transfer_positions(coarse, fine)
+                       config=fine_config, place=place, like=coarse)  # fmt: skip
+    fine.garment.config = config
+    moved = carry(maps, coarse.garment.meshes, panel_positions(coarse, coarse.state.positions()))
+    x = np.vstack([moved[p.name] for p in fine.model.pieces])
     fine.state.set(x, np.zeros_like(x))
     build_s = time.perf_counter() - t1
     repairs = [untangle_state(fine, "after the coarse drape", config.repair)]
@@ -113,8 +139,12 @@ def drape_coarse_to_fine(pattern, mannequin, *, fabric=None, edge_length_m: floa
         # the seams arrive closed: the panels beside them are kept apart at once
         collider.set_seam_partners(fine.model.seam_pairs_np, neighbours=False)
     stop = fine.spec.stop
-    fine.spec = dataclasses.replace(fine.spec, stop=dataclasses.replace(
-        stop, min_time_s=config.fine_min_time_s))  # fmt: skip
+    fine.spec = dataclasses.replace(
+        fine.spec,
+        stop=dataclasses.replace(
+            stop, min_time_s=config.fine_min_time_s, residual_mean=config.fine_residual_mean
+        ),
+    )
     try:
         result = run_scene(fine, progress=progress)
         result = settle_repaired(fine, result, repairs, config.repair, progress=progress)

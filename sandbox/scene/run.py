@@ -80,6 +80,7 @@ def run_scene(
     show = sys.stderr.isatty() if progress is None else progress
     bar = tqdm(total=frames_total, disable=not show, unit="frame", desc=spec.name, leave=False)
     steps = frame = 0
+    checks = []  # residual checks of the frames where the displacement rule held
     max_d = mean_d = math.inf
     converged, reason = False, "time limit"
     t_start = time.perf_counter()
@@ -95,8 +96,9 @@ def run_scene(
             if on_frame is not None:
                 on_frame(scene, frame)
             if rule.update(max_d, mean_d) and frame * frame_s >= stop.min_time_s:
-                converged, reason = True, "stop rule"
-                break
+                if stop.residual_mean is None or _at_rest(scene, stop.residual_mean, checks):
+                    converged, reason = True, "stop rule"
+                    break
             if time.perf_counter() - t_start > stop.wall_limit_s:
                 reason = "wall-clock limit"
                 break
@@ -125,6 +127,8 @@ def run_scene(
         "dt_above_stable_limit": bool(dt_note),
         "dt_warning": dt_note,
         "dt_policy": "guard-adaptive" if guard.enabled else "fixed",
+        "stop_residual_mean": stop.residual_mean,
+        "residual_checks": len(checks),
         **watch.metrics(),
     }
     metrics.update(state_metrics(scene))
@@ -133,10 +137,22 @@ def run_scene(
     return RunResult(converged, reason, metrics, scene.state.positions())
 
 
+def _at_rest(scene: Scene, limit: float, checks: list) -> bool:
+    """Whether the mean equilibrium residual over weight
+    (:func:`~sandbox.sim.residual.scene_residual`) is below ``limit``: a displacement rule
+    met only because damping slowed the cloth down does not stop the run."""
+    from sandbox.sim.residual import scene_residual
+
+    r = scene_residual(scene)["residual_mean_over_weight"]
+    checks.append(r)
+    return r < limit
+
+
 def state_metrics(scene: Scene) -> dict:
     """What the run's final state and its solver report: Newton's totals (``newton``, implicit
     Euler only: since the solver was made or its stats reset, so a drape's include the
-    sewing), the seam gap and the contact measures (:func:`contact_metrics`)."""
+    sewing), the equilibrium residual (:func:`~sandbox.sim.residual.scene_residual`), the
+    seam gap and the contact measures (:func:`contact_metrics`)."""
     from sandbox.sim.residual import scene_residual
 
     model = scene.model

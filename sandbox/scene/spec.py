@@ -76,6 +76,7 @@ class StopSpec:
     min_time_s: float = 0.0
     time_limit_s: float = 10.0
     wall_limit_s: float = 3600.0
+    residual_mean: float | None = None  # also: mean equilibrium residual / weight below this
 
 
 @dataclass
@@ -221,6 +222,8 @@ def _stop(r: _Reader, t: dict) -> StopSpec:
     s.min_time_s = r.number(t, w, "min_time_s", s.min_time_s, minimum=0.0)
     s.time_limit_s = r.number(t, w, "time_limit_s", s.time_limit_s, positive=True)
     s.wall_limit_s = r.number(t, w, "wall_limit_s", s.wall_limit_s, positive=True)
+    if "residual_mean" in t:
+        s.residual_mean = r.number(t, w, "residual_mean", positive=True)
     return s
 
 

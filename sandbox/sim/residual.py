@@ -17,7 +17,6 @@ is 1 for a vertex in free fall and 0 at rest. Cloth-on-cloth contact is not mode
 support: a vertex resting on another layer shows its share of that layer's reaction.
 """
 
-
 import weakref
 
 import numpy as np
