@@ -236,8 +236,8 @@ class DrapeConfig:
                            seam_damping_ratio=self.seam_damping_ratio,
                            min_time_s=self.min_time_s,
                            fine_min_time_s=self.fine_min_time_s,
-                           fine_damping_per_s=self.fine_damping_per_s,
-                           fine_residual_mean=self.fine_residual_mean)  # fmt: skip
+                           fine_damping_per_s=self.fine_damping_per_s)  # fmt: skip
+        _check_positive("DrapeConfig", fine_residual_mean=self.fine_residual_mean)
 
     @property
     def implicit(self) -> bool:

@@ -131,6 +131,9 @@ def drape_coarse_to_fine(pattern, mannequin, *, fabric=None, edge_length_m: floa
     fine.garment.config = config
     moved = carry(maps, coarse.garment.meshes, panel_positions(coarse, coarse.state.positions()))
     x = np.vstack([moved[p.name] for p in fine.model.pieces])
+    # a coarse triangle over a convex part of the body is a chord: the fine vertices on it
+    # can lie inside the body, which contact only keeps cloth from entering
+    x, pushed = fine.garment.placement_body.push_out(x, config.thickness_m)
     fine.state.set(x, np.zeros_like(x))
     build_s = time.perf_counter() - t1
     repairs = [untangle_state(fine, "after the coarse drape", config.repair)]
@@ -163,6 +166,7 @@ def drape_coarse_to_fine(pattern, mannequin, *, fabric=None, edge_length_m: floa
         coarse_converged=cm["converged"],
         coarse_wall_time_s=coarse_wall,
         coarse_untangle=cm["untangle"],
+        carried_pushed_out=int(pushed),
         fine_sim_time_s=m["sim_time_s"],
         fine_wall_time_s=m["wall_time_s"],
         fine_steps=m["steps"],

@@ -55,7 +55,7 @@ def _supported(f: np.ndarray, n1: np.ndarray, n2: np.ndarray, count: np.ndarray,
     max(0, |f + N| − μ|N|), N ≥ 0 along the active normals (the normal reaction cancels the
     part of f pressing into them)."""
     best = np.linalg.norm(f, axis=1)
-    for normals in ((n1,), (n2,), (n1, n2)):
+    for normals, planes in (((n1,), 1), ((n2,), 2), ((n1, n2), 2)):
         if len(normals) == 1:
             n = normals[0]
             lam = -np.einsum("ij,ij->i", f, n)
@@ -74,10 +74,7 @@ def _supported(f: np.ndarray, n1: np.ndarray, n2: np.ndarray, count: np.ndarray,
             ok = (np.abs(det) > 1e-9) & (l1 > 0.0) & (l2 > 0.0) & (count >= 2)
             reaction = l1[:, None] * n1 + l2[:, None] * n2
             load = np.linalg.norm(reaction, axis=1)
-        if normals[0] is n2 and len(normals) == 1:
-            ok &= count >= 2
-        else:
-            ok &= count >= 1
+        ok &= count >= planes
         left = np.maximum(0.0, np.linalg.norm(f + reaction, axis=1) - mu * load)
         best = np.where(ok, np.minimum(best, left), best)
     return best
