@@ -15,6 +15,7 @@ from importlib import resources
 from pathlib import Path
 
 from sandbox.errors import SandboxError
+from sandbox.garment.config import DRAPE_METHODS
 from sandbox.precision import add_precision_flags
 from sandbox.scene.spec import INTEGRATORS
 
@@ -187,6 +188,10 @@ def _add_drape_parsers(sub) -> None:
                    "--edge-cm says otherwise: finer, Newton does not converge and a drape "
                    "takes hours; at 3 cm all 14 garments meet the acceptance, "
                    "docs/gallery-implicit)")  # fmt: skip
+    p.add_argument("--method", choices=DRAPE_METHODS, default=None,
+                   help="coarse_to_fine (default: sew and drape a 3 cm mesh, carry its shape to "
+                   "the fine mesh and let it settle, docs/performance.md) or direct (sew and "
+                   "drape the fine mesh itself, the paper's way and the reference)")  # fmt: skip
     p.add_argument("--strain-damping", type=float, default=None, metavar="S",
                    help="the membrane's strain-rate damping in s (default 4e-6; 0: off; it "
                    "settles stiff fabrics' contact chatter, docs/drape.md)")  # fmt: skip
@@ -216,6 +221,12 @@ def _add_drape_parsers(sub) -> None:
                    default="symplectic_euler",
                    help="symplectic_euler (default) or implicit_euler "
                    "(docs/implicit.md)")  # fmt: skip
+    p.add_argument(
+        "--method",
+        choices=DRAPE_METHODS,
+        default="coarse_to_fine",
+        help="coarse_to_fine (default) or direct (docs/performance.md)",
+    )
     p.add_argument("--meshes", action="store_true", help="also write each garment's meshes")
     p.add_argument("--resume", action="store_true",
                    help="read back the garments already draped in --out with the same size, "
@@ -235,6 +246,8 @@ def drape_config_from_args(args, base=None):
     changes = {}
     if args.integrator is not None:
         changes["integrator"] = args.integrator
+    if args.method is not None:
+        changes["method"] = args.method
     if args.no_self_collision:
         changes["self_collision"] = False
     if args.fast_sew or args.no_self_collision:
@@ -315,7 +328,8 @@ def cmd_gallery(args) -> int:
     paths = gallery(args.out, quick=args.quick, size=args.size, names=args.only,
                     edge_length_m=None if args.edge_cm is None else args.edge_cm / 100.0,
                     meshes=args.meshes, progress=not args.quiet,
-                    resume=args.resume, jobs=args.jobs, integrator=args.integrator)  # fmt: skip
+                    resume=args.resume, jobs=args.jobs, integrator=args.integrator,
+                    method=args.method)  # fmt: skip
     for p in paths:
         print(p)
     return 0

@@ -270,7 +270,7 @@ def test_cli_flags_win_over_the_settings_file(tmp_path):
     from sandbox.garment.config import drape_config_from_dict
 
     base = drape_config_from_dict({"time_limit_s": 3.0, "integrator": "implicit_euler"})
-    flags = argparse.Namespace(integrator=None, no_self_collision=False, fast_sew=True,
+    flags = argparse.Namespace(integrator=None, method=None, no_self_collision=False, fast_sew=True,
                                time_limit=5.0, strain_damping=None)  # fmt: skip
     config = drape_config_from_args(flags, base)
     assert config.time_limit_s == 5.0 and config.implicit and not config.sewing.self_collision

@@ -146,7 +146,7 @@ def test_the_gallery_reads_back_drapes_already_written_with_the_same_settings(tm
          "vertex_count": 6330, "wall_time_s": 60.0, "total_wall_time_s": 69.0,
          "sim_time_s": 1.5, "converged": True, "seam_gap_max_m": 0.9e-3,
          "vertices_inside_body": 0, "intersecting_triangle_pairs": 0, "folded_area_pct": 0.3,
-         "meets_acceptance": True}  # fmt: skip
+         "meets_acceptance": True, "method": "coarse_to_fine"}  # fmt: skip
     folder = tmp_path / "tank-top"
     folder.mkdir()
     (folder / "metrics.json").write_text(json.dumps(m))
@@ -161,6 +161,7 @@ def test_the_gallery_reads_back_drapes_already_written_with_the_same_settings(tm
     assert earlier_drape(folder, "camisole", 12, 0.01) is None  # another garment
     # no "integrator" key: symplectic Euler's (the only one before the key was written)
     assert earlier_drape(folder, "tank-top", 12, 0.01, integrator="implicit_euler") is None
+    assert earlier_drape(folder, "tank-top", 12, 0.01, method="direct") is None
     assert earlier_drape(tmp_path / "none", "tank-top", 12, 0.01) is None
     sheet, table, _ = gallery(tmp_path, names=["tank-top"], resume=True, progress=False)
     text = table.read_text()

@@ -53,6 +53,7 @@ def gallery(
     resume: bool = False,
     jobs: int = 1,
     integrator: str = "symplectic_euler",
+    method: str = "coarse_to_fine",
 ) -> list[Path]:
     """Drape the library's garments and write the contact sheet and the table.
 
@@ -62,8 +63,9 @@ def gallery(
     own ``python -m sandbox drape`` process (:func:`drape_in_processes`) with the CPU's
     threads shared out, then read them back. ``integrator``: ``"implicit_euler"`` drapes
     with backward Euler, on 3 cm meshes unless ``edge_length_m`` says otherwise
-    (:data:`~sandbox.garment.config.IMPLICIT_GARMENT_EDGE_M`). Returns the written paths
-    (sheet, table, JSON).
+    (:data:`~sandbox.garment.config.IMPLICIT_GARMENT_EDGE_M`). ``method``: the
+    :attr:`DrapeConfig.method` (``"direct"``: sew and drape the mesh itself). Returns the
+    written paths (sheet, table, JSON).
     """
     from sandbox.garment import DrapeConfig, default_edge_m
 
@@ -75,12 +77,13 @@ def gallery(
         edge = QUICK_EDGE_M if quick else default_edge_m(integrator)
     fabric = QUICK_FABRIC if quick else None
     time_limit_s = QUICK_TIME_LIMIT_S if quick else None
-    config = DrapeConfig(integrator=integrator)
+    config = DrapeConfig(integrator=integrator, method=method)
     if time_limit_s is not None:
         config = dataclasses.replace(config, time_limit_s=time_limit_s)
 
     def read_back(names):  # {name: (metrics, front image)} of those already in out
-        found = {n: earlier_drape(out / n, n, size, edge, fabric, integrator) for n in names}
+        found = {n: earlier_drape(out / n, n, size, edge, fabric, integrator, method)
+                 for n in names}  # fmt: skip
         return {n: got for n, got in found.items() if got is not None}
 
     earlier = read_back(chosen) if resume else {}
@@ -91,7 +94,7 @@ def gallery(
         failed = drape_in_processes(todo, out, size=size, edge_length_m=edge, jobs=jobs,
                                     meshes=meshes, progress=progress, fabric=fabric,
                                     time_limit_s=time_limit_s,
-                                    integrator=integrator)  # fmt: skip
+                                    integrator=integrator, method=method)  # fmt: skip
         draped = read_back([n for n in todo if n not in failed])
     rows, tiles = [], []
     here = _InProcess(out, size=size, edge_length_m=edge, fabric=fabric, config=config,
@@ -122,7 +125,7 @@ def gallery(
                   f"{row['vertices_inside_body']}, pairs {row['intersecting_triangle_pairs']}",
                   flush=True)  # fmt: skip
     header = _header(out_dir=out_dir, size=size, edge_m=edge, quick=quick,
-                     integrator=integrator, jobs=jobs, read_back=len(earlier),
+                     integrator=integrator, method=method, jobs=jobs, read_back=len(earlier),
                      total=len(chosen))  # fmt: skip
     return [
         write_sheet(out / "gallery.png", tiles),
@@ -177,15 +180,19 @@ class _InProcess:
         return _row(name, res.metrics), _front_tile(res)
 
 
-def _header(*, out_dir, size, edge_m, quick, integrator, jobs, read_back, total) -> str:
+def _header(*, out_dir, size, edge_m, quick, integrator, method, jobs, read_back,
+            total) -> str:  # fmt: skip
     """The table's first line: what was draped and the command that reproduces it."""
     implicit = integrator == "implicit_euler"
     fabrics = f", every garment in {QUICK_FABRIC}" if quick else ", each garment's fabric"
     header = f"Size {size} mannequin, {'quick: ' if quick else ''}{edge_m * 100:g} cm mesh edges"
     if implicit:
         header += ", implicit Euler (backward Euler at 1/60 s steps)"
+    if method == "coarse_to_fine":
+        header += ", coarse to fine (docs/performance.md)"
     header += fabrics + ". Reproduce: `python -m sandbox gallery" + (" --quick" if quick else "")
     header += " --integrator implicit_euler" if implicit else ""
+    header += f" --method {method}" if method != "coarse_to_fine" else ""
     header += (f" --size {size}" if size != 12 else "") + (f" --jobs {jobs}" if jobs > 1 else "")
     header += f" --out {Path(out_dir).as_posix()}" if Path(out_dir) != Path("docs/gallery") else ""
     header += "`"
@@ -198,7 +205,8 @@ def _header(*, out_dir, size, edge_m, quick, integrator, jobs, read_back, total)
 def drape_in_processes(names, out_dir, *, size: int, edge_length_m: float, jobs: int,
                        meshes: bool = False, progress: bool = True, fabric: str | None = None,
                        time_limit_s: float | None = None,
-                       integrator: str = "symplectic_euler") -> dict[str, str]:  # fmt: skip
+                       integrator: str = "symplectic_euler",
+                       method: str = "coarse_to_fine") -> dict[str, str]:  # fmt: skip
     """Drape ``names`` with ``python -m sandbox drape`` processes, ``jobs`` at a time, each
     into ``out_dir/<name>`` (its output in ``drape.log`` there).
 
@@ -219,7 +227,7 @@ def drape_in_processes(names, out_dir, *, size: int, edge_length_m: float, jobs:
         flags += ["--fabric", fabric]
     if time_limit_s is not None:
         flags += ["--time-limit", f"{time_limit_s:.10g}"]
-    flags += ["--integrator", integrator]
+    flags += ["--integrator", integrator, "--method", method]
     if not meshes:
         flags.append("--no-meshes")
     waiting, running, failed = list(names), {}, {}
@@ -254,7 +262,8 @@ def drape_in_processes(names, out_dir, *, size: int, edge_length_m: float, jobs:
 
 
 def earlier_drape(folder, name: str, size: int, edge_length_m: float, fabric: str | None = None,
-                  integrator: str = "symplectic_euler"):  # fmt: skip
+                  integrator: str = "symplectic_euler",
+                  method: str = "coarse_to_fine"):  # fmt: skip
     """``(metrics, front image)`` of a drape of garment ``name`` already written to
     ``folder`` (``metrics.json`` and ``render.png``) on the database mannequin ``size`` with
     mesh edge ``edge_length_m`` [m] (and ``fabric``, if not None) by ``integrator`` (metrics
@@ -289,6 +298,8 @@ def earlier_drape(folder, name: str, size: int, edge_length_m: float, fabric: st
         differs.append(f"fabric {m.get('fabric')}")
     if m.get("integrator", "symplectic_euler") != integrator:
         differs.append(f"integrator {m.get('integrator')}")
+    if m.get("method", "direct") != method:  # metrics without the key are the direct method's
+        differs.append(f"method {m.get('method', 'direct')}")
     if "vertex_count" not in m or "wall_time_s" not in m:
         differs.append("no vertex count or wall time")
     if differs:

@@ -273,6 +273,20 @@ def scene_from_model(spec: SceneSpec, model: Model,
     return Scene(spec, model, model.state(), control, solver, dt, steps, limit)
 
 
+def retime(scene: Scene, limit_s: float, *, at_most: float = 2.0) -> None:
+    """Set the scene's explicit step from a stability limit ``limit_s`` [s] measured on it
+    (:func:`~sandbox.sim.stability.measured_stable_dt`): :data:`DT_SAFETY` x the limit,
+    shortened for strain damping, at most ``at_most`` x the step it has, a whole number of
+    steps per frame."""
+    sim = scene.spec.simulation
+    frame = 1.0 / sim.frame_rate_hz
+    dt = min(DT_SAFETY * damped_step(limit_s, sim.strain_damping_s), at_most * scene.dt_s, frame)
+    steps = max(1, math.ceil(frame / dt - 1e-9))
+    scene.dt_s = frame / steps
+    scene.steps_per_frame = steps
+    scene.dt_limit_s = limit_s
+
+
 def damped_step(limit_s: float, beta_s: float) -> float:
     """The explicit stable step [s] with strain-rate damping β [s]: the undamped limit
     shrinks by √(1+ζ²) − ζ, ζ = β ω_max / 2 = β / limit, for the fastest mode
