@@ -11,7 +11,8 @@ Usage:
 garment is draped with ``--method`` and compared with its reference: ease at bust, waist
 and hip, hem height (the garment's lowest point) and the vertex distance to the reference
 (mean and 95th percentile; the same 1 cm mesh, vertex for vertex). The table goes to
-``benchmarks/results/gallery_speed.md`` (and ``.json``), with the machine it ran on.
+``docs/results/gallery_speed_METHOD.md`` (and ``.json``), where ``python -m sandbox figures``
+reads it, with the machine it ran on.
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 REFERENCE = HERE / "reference"
-RESULTS = HERE / "results"
+RESULTS = HERE.parent / "docs" / "results"
 QUANTUM_M = 1e-4  # stored positions are rounded to 0.1 mm
 
 
@@ -156,6 +157,13 @@ def write_table(rows: list[dict], method: str) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _write(path: Path, text: str) -> None:
+    """Write ``text`` to a temporary file beside ``path``, then rename it into place."""
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    tmp.write_text(text)
+    tmp.replace(path)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("garments", nargs="*")
@@ -176,11 +184,11 @@ def main() -> None:
         write_reference(garments)
         return
     rows = compare(garments, args.method)
-    RESULTS.mkdir(exist_ok=True)
+    RESULTS.mkdir(parents=True, exist_ok=True)
     tag = args.tag or args.method
-    (RESULTS / f"gallery_speed_{tag}.json").write_text(json.dumps(rows, indent=1))
+    _write(RESULTS / f"gallery_speed_{tag}.json", json.dumps(rows, indent=1))
     table = write_table(rows, args.method)
-    (RESULTS / f"gallery_speed_{tag}.md").write_text(table)
+    _write(RESULTS / f"gallery_speed_{tag}.md", table)
     sys.stdout.write(table)
 
 

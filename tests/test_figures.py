@@ -106,3 +106,23 @@ def test_readme_with_replaces_only_the_block():
     assert "1 \\| 2" in fig.table(figs)
     with pytest.raises(SandboxError, match="README.md: no"):
         fig.readme_with("no markers", figs)
+
+
+def test_gallery_speed_figures_quote_time_and_distance_to_the_reference(tmp_path):
+    rows = [
+        {"garment": "a", "total_s": 10.0, "ref_total_s": 100.0, "dist_mean_cm": 0.5,
+         "dist_p95_cm": 1.2, "ease_bust_delta_cm": -0.3, "ease_waist_delta_cm": 0.1,
+         "ease_hip_delta_cm": None, "hem_delta_cm": -0.4, "meets_acceptance": True},
+        {"garment": "b", "total_s": 30.0, "ref_total_s": 300.0, "dist_mean_cm": 0.9,
+         "dist_p95_cm": 2.0, "ease_bust_delta_cm": 0.6, "ease_waist_delta_cm": None,
+         "ease_hip_delta_cm": None, "hem_delta_cm": 0.2, "meets_acceptance": False},
+    ]  # fmt: skip
+    (tmp_path / fig.GALLERY_SPEED).parent.mkdir(parents=True)
+    (tmp_path / fig.GALLERY_SPEED).write_text(json.dumps(rows))
+    time_fig, shape_fig = fig.gallery_speed_figures(tmp_path)
+    assert (
+        time_fig.value == "median 20 s (10–30 s); the direct 1 cm reference: median 200 s "
+        "(100–300 s)"
+    )
+    assert "median 0.70 cm, largest 0.90 cm (95th percentile up to 2.00 cm)" in shape_fig.value
+    assert "ease within 0.60 cm, lowest point within 0.40 cm; 1 of 2 meet" in shape_fig.value

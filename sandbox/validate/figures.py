@@ -31,6 +31,7 @@ GALLERY_IMPLICIT = "docs/gallery-implicit/gallery.json"
 DEMO = "docs/demo/metrics.json"
 REPORT = "docs/report/report.json"
 BENCH_STEP = "docs/results/bench_step.txt"
+GALLERY_SPEED = "docs/results/gallery_speed_coarse_to_fine.json"
 
 STEP_VERTICES = 16_000
 """The sheet size whose throughput is quoted (the nearest row of the benchmark's table)."""
@@ -75,6 +76,40 @@ def gallery_figures(root: Path, rel: str, label: str, command: str) -> list[Figu
                command, rel),
         Figure(f"{label}: wall time per garment", _seconds(times) if times else "-",
                command, rel),
+    ]  # fmt: skip
+
+
+def gallery_speed_figures(root: Path) -> list[Figure]:
+    """Coarse to fine against the direct 1 cm reference drapes: time, and how far apart the
+    rest shapes are (benchmarks/bench_gallery_speed.py)."""
+    rows = _read_json(root, GALLERY_SPEED)
+    if not isinstance(rows, list) or not rows:
+        raise SandboxError(f"{GALLERY_SPEED}: no garments")
+    command = "python benchmarks/bench_gallery_speed.py"
+    total = [float(r["total_s"]) for r in rows]
+    ref = [float(r["ref_total_s"]) for r in rows if r.get("ref_total_s") is not None]
+    label = f"Coarse to fine (3 cm, then 1 cm), {len(rows)} garments, size 12"
+    time_value = _seconds(total)
+    if ref:
+        time_value += f"; the direct 1 cm reference: {_seconds(ref)}"
+    dist = [r["dist_mean_cm"] for r in rows if r.get("dist_mean_cm") is not None]
+    p95 = [r["dist_p95_cm"] for r in rows if r.get("dist_p95_cm") is not None]
+    ease = [
+        abs(r[k])
+        for r in rows
+        for k in ("ease_bust_delta_cm", "ease_waist_delta_cm", "ease_hip_delta_cm")
+        if r.get(k) is not None
+    ]
+    hem = [abs(r["hem_delta_cm"]) for r in rows if r.get("hem_delta_cm") is not None]
+    meets = sum(bool(r.get("meets_acceptance")) for r in rows)
+    shape = (f"mean vertex distance median {statistics.median(dist):.2f} cm, largest "
+             f"{max(dist):.2f} cm (95th percentile up to {max(p95):.2f} cm); ease within "
+             f"{max(ease):.2f} cm, lowest point within {max(hem):.2f} cm; {meets} of "
+             f"{len(rows)} meet the acceptance") if dist else "-"  # fmt: skip
+    return [
+        Figure(f"{label}: total time per garment", time_value, command, GALLERY_SPEED),
+        Figure(f"{label}: the same rest shape as the direct 1 cm reference?", shape, command,
+               GALLERY_SPEED),
     ]  # fmt: skip
 
 
@@ -201,8 +236,9 @@ def figures(root: Path | str = ".") -> list[Figure]:
     """Every figure of the table, in its order, read from the files under ``root``."""
     root = Path(root)
     return [
-        *gallery_figures(root, GALLERY, "Gallery, 1 cm, size 12, symplectic Euler",
+        *gallery_figures(root, GALLERY, "Gallery, 1 cm, size 12, coarse to fine",
                          "python -m sandbox gallery --jobs 2"),
+        *gallery_speed_figures(root),
         *gallery_figures(root, GALLERY_IMPLICIT, "Gallery, 3 cm, size 12, implicit Euler",
                          "python -m sandbox gallery --integrator implicit_euler --jobs 2 "
                          "--out docs/gallery-implicit"),
