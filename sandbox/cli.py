@@ -301,6 +301,15 @@ def cmd_drape(args) -> int:
               f"{m['fabric']}; dt = {m['dt_s']:.3g} s; sewn in {m['sew_sim_time_s']:.2f} s, "
               f"{state} after {m['sim_time_s']:.2f} s simulated, "
               f"{m['total_wall_time_s']:.1f} s wall")  # fmt: skip
+        if m.get("method") == "coarse_to_fine":
+            print(f"coarse to fine: {m['coarse_edge_length_m'] * 100:g} cm level "
+                  f"({m['coarse_vertex_count']} vertices) sewn and draped in "
+                  f"{m['coarse_sim_time_s']:.2f} s simulated, {m['coarse_wall_time_s']:.1f} s "
+                  f"wall; fine level settled in {m['fine_sim_time_s']:.2f} s simulated, "
+                  f"{m['fine_wall_time_s']:.1f} s wall")  # fmt: skip
+        if m.get("residual_mean_over_weight") is not None:
+            print(f"equilibrium residual: mean {m['residual_mean_over_weight']:.3f}, max "
+                  f"{m['residual_max_over_weight']:.2f} of a vertex's weight")  # fmt: skip
         gap = m.get("seam_gap_max_m")
         print(f"seam gap max {0.0 if gap is None else gap * 1e3:.2f} mm, penetration "
               f"{(m['penetration_max_m'] or 0.0) * 1e3:.2f} mm, vertices inside body "
