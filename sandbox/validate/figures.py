@@ -236,8 +236,8 @@ def figures(root: Path | str = ".") -> list[Figure]:
     """Every figure of the table, in its order, read from the files under ``root``."""
     root = Path(root)
     return [
-        *gallery_figures(root, GALLERY, "Gallery, 1 cm, size 12, coarse to fine",
-                         "python -m sandbox gallery --jobs 2"),
+        *gallery_figures(root, GALLERY, "Gallery, 1 cm, size 12, direct symplectic Euler",
+                         "python -m sandbox gallery --method direct --jobs 2"),
         *gallery_speed_figures(root),
         *gallery_figures(root, GALLERY_IMPLICIT, "Gallery, 3 cm, size 12, implicit Euler",
                          "python -m sandbox gallery --integrator implicit_euler --jobs 2 "
