@@ -77,10 +77,25 @@ def write_reference(garments: list[str]) -> None:
             np.savez_compressed(fh, positions_01mm=q)
         tmp.replace(REFERENCE / f"{g}.npz")
         index[g] = _summary(r.metrics, x, wall)
+        index["_meta"] = _meta()
         print(g, json.dumps(index[g]), flush=True)
         tmp = index_path.with_suffix(".tmp")
         tmp.write_text(json.dumps(index, indent=1, sort_keys=True))
         tmp.replace(index_path)
+
+
+def _meta() -> dict:
+    """Where and with what code the references were draped."""
+    import subprocess
+
+    try:
+        commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=HERE, capture_output=True,
+                                text=True, check=True).stdout.strip()  # fmt: skip
+    except (OSError, subprocess.CalledProcessError):
+        commit = None
+    return {"commit": commit, "date": time.strftime("%Y-%m-%d"),
+            "machine": f"{platform.machine()}, {os.cpu_count()} cores, Python "
+                       f"{platform.python_version()}"}  # fmt: skip
 
 
 def load_reference(garment: str) -> np.ndarray:
@@ -91,6 +106,7 @@ def load_reference(garment: str) -> np.ndarray:
 
 def compare(garments: list[str], method: str) -> list[dict]:
     ref_index = json.loads((REFERENCE / "reference.json").read_text())
+    ref_index.pop("_meta", None)
     rows = []
     for g in garments:
         t0 = time.perf_counter()
