@@ -110,3 +110,18 @@ def test_the_seam_damping_ratio_is_checked():
     data = {**SEWN_RINGING, "simulation": {"seam_damping_ratio": 2.0}}
     with pytest.raises(SandboxError, match="seam_damping_ratio"):
         scene_from_dict(data, source="sewn.toml")
+
+
+def test_the_residual_stop_waits_while_it_falls_and_not_on_a_plateau(monkeypatch):
+    from sandbox.scene import run
+    from sandbox.sim import residual
+
+    values = iter([3.0, 2.0, 1.0, 0.9, 0.8, 0.79, 0.79, 0.79, 0.79, 0.1])
+    monkeypatch.setattr(residual, "scene_residual",
+                        lambda scene: {"residual_mean_over_weight": next(values)})  # fmt: skip
+    checks: list = []
+    got = [run._at_rest(None, 0.25, checks) for _ in range(8)]
+    assert got[:7] == [False] * 7  # falling, then too few checks to call it a plateau
+    assert got[7] is None  # the last three no more than 10 % below the best before
+    assert run._at_rest(None, 0.25, checks) is None
+    assert run._at_rest(None, 0.25, checks) is True
