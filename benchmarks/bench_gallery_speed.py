@@ -3,6 +3,7 @@ with the reference drapes.
 
 Usage:
     python benchmarks/bench_gallery_speed.py [GARMENT ...] [--method coarse_to_fine]
+        [--set NAME=VALUE ...] [--tag TAG]
     python benchmarks/bench_gallery_speed.py --reference [GARMENT ...]
 
 ``--reference`` drapes with the paper's symplectic Euler all the way at 1 cm (the
@@ -12,7 +13,9 @@ garment is draped with ``--method`` and compared with its reference: ease at bus
 and hip, hem height (the garment's lowest point) and the vertex distance to the reference
 (mean and 95th percentile; the same 1 cm mesh, vertex for vertex). The table goes to
 ``docs/results/gallery_speed_METHOD.md`` (and ``.json``), where ``python -m sandbox figures``
-reads it, with the machine it ran on.
+reads it, with the machine it ran on. Naming garments reruns only those: their rows replace
+theirs in an existing results file. ``--set`` changes a ``DrapeConfig`` setting for the run
+(for experiments; give them a ``--tag`` so the published file stays the defaults').
 """
 
 from __future__ import annotations
@@ -33,10 +36,10 @@ RESULTS = HERE.parent / "docs" / "results"
 QUANTUM_M = 1e-4  # stored positions are rounded to 0.1 mm
 
 
-def _drape(garment: str, method: str):
+def _drape(garment: str, method: str, overrides: dict | None = None):
     from sandbox.garment import DrapeConfig, drape
 
-    config = DrapeConfig(method=method)
+    config = DrapeConfig(method=method, **(overrides or {}))
     out = Path("/tmp") / f"gallery_speed_{os.getpid()}" / garment
     return drape(garment, size=12, out_dir=out, edge_length_m=0.01, config=config,
                  render=False, meshes=False, progress=False)  # fmt: skip
@@ -104,13 +107,36 @@ def load_reference(garment: str) -> np.ndarray:
         return z["positions_01mm"].astype(np.float64) * QUANTUM_M
 
 
-def compare(garments: list[str], method: str) -> list[dict]:
+def parse_overrides(items: list[str]) -> dict:
+    """``["coarse_self_collision=true", "fine_damping_per_s=30"]`` -> DrapeConfig keywords
+    (values read as JSON: numbers, true/false, null)."""
+    out = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        if not sep:
+            raise SystemExit(f"--set {item!r}: expected NAME=VALUE")
+        try:
+            out[name.strip()] = json.loads(value)
+        except json.JSONDecodeError:
+            msg = f"--set {item!r}: the value is not a number, true, false or null"
+            raise SystemExit(msg) from None
+    return out
+
+
+def merge_rows(old: list[dict], new: list[dict], order: list[str]) -> list[dict]:
+    """``old`` with each garment in ``new`` replaced or added, in ``order``."""
+    by_name = {r["garment"]: r for r in old}
+    by_name.update({r["garment"]: r for r in new})
+    return [by_name[g] for g in order if g in by_name]
+
+
+def compare(garments: list[str], method: str, overrides: dict | None = None) -> list[dict]:
     ref_index = json.loads((REFERENCE / "reference.json").read_text())
     ref_index.pop("_meta", None)
     rows = []
     for g in garments:
         t0 = time.perf_counter()
-        r = _drape(g, method)
+        r = _drape(g, method, overrides)
         wall = time.perf_counter() - t0
         x = r.scene.state.positions().astype(np.float64)
         row = {"garment": g, **_summary(r.metrics, x, wall)}
@@ -134,7 +160,7 @@ def _fmt(v, spec):
     return "–" if v is None else format(v, spec)
 
 
-def write_table(rows: list[dict], method: str) -> str:
+def write_table(rows: list[dict], method: str, extra: str = "") -> str:
     totals = sorted(r["total_s"] for r in rows)
     median = (
         totals[len(totals) // 2]
@@ -146,7 +172,7 @@ def write_table(rows: list[dict], method: str) -> str:
         "",
         f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python "
         f"{platform.python_version()}, {time.strftime('%Y-%m-%d')}. "
-        f"Command: `python benchmarks/bench_gallery_speed.py --method {method}`.",
+        f"Command: `python benchmarks/bench_gallery_speed.py --method {method}{extra}`.",
         "",
         f"Median total {median:.1f} s, slowest {totals[-1]:.1f} s; "
         f"{sum(bool(r['meets_acceptance']) for r in rows)} of {len(rows)} meet the acceptance.",
@@ -190,7 +216,10 @@ def main() -> None:
     )
     ap.add_argument("--method", default="coarse_to_fine")
     ap.add_argument("--tag", default=None, help="results file suffix (default: the method)")
+    ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                    help="a DrapeConfig setting for this run (repeatable)")  # fmt: skip
     args = ap.parse_args()
+    overrides = parse_overrides(args.set)
     from sandbox import runtime
     from sandbox.garment import garment_names
 
@@ -199,11 +228,14 @@ def main() -> None:
     if args.reference:
         write_reference(garments)
         return
-    rows = compare(garments, args.method)
+    rows = compare(garments, args.method, overrides)
     RESULTS.mkdir(parents=True, exist_ok=True)
     tag = args.tag or args.method
+    old = RESULTS / f"gallery_speed_{tag}.json"
+    if args.garments and old.exists():  # a rerun of some garments keeps the others' rows
+        rows = merge_rows(json.loads(old.read_text()), rows, list(garment_names()))
     _write(RESULTS / f"gallery_speed_{tag}.json", json.dumps(rows, indent=1))
-    table = write_table(rows, args.method)
+    table = write_table(rows, args.method, "".join(f" --set {i}" for i in args.set))
     _write(RESULTS / f"gallery_speed_{tag}.md", table)
     sys.stdout.write(table)
 

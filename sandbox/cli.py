@@ -307,6 +307,8 @@ def cmd_drape(args) -> int:
                   f"{m['coarse_sim_time_s']:.2f} s simulated, {m['coarse_wall_time_s']:.1f} s "
                   f"wall; fine level settled in {m['fine_sim_time_s']:.2f} s simulated, "
                   f"{m['fine_wall_time_s']:.1f} s wall")  # fmt: skip
+        if m.get("coarse_fallback"):
+            print(f"{m['coarse_fallback']} ({m['coarse_wall_time_s']:.1f} s wall spent on it)")
         if m.get("residual_mean_over_weight") is not None:
             print(f"equilibrium residual: mean {m['residual_mean_over_weight']:.3f}, max "
                   f"{m['residual_max_over_weight']:.2f} of a vertex's weight")  # fmt: skip

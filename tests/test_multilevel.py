@@ -82,3 +82,22 @@ def test_a_coarse_to_fine_drape_meets_the_acceptance_at_rest(tmp_path):
     assert m["converged"] and m["meets_acceptance"]
     assert m["residual_mean_over_weight"] < config.fine_residual_mean
     assert m["total_wall_time_s"] >= m["coarse_wall_time_s"] + m["fine_wall_time_s"]
+
+
+@pytest.mark.slow
+def test_a_coarse_level_that_is_not_at_rest_falls_back_to_the_direct_drape(tmp_path):
+    """A coarse level stopped by the time limit has no rest shape to carry: the drape is
+    direct, and says so, and its wall time includes the coarse level's."""
+    import dataclasses
+
+    from sandbox.garment import drape
+
+    base = DrapeConfig(method="coarse_to_fine", coarse_edge_m=0.05, time_limit_s=0.1)
+    config = dataclasses.replace(base, sewing=dataclasses.replace(base.sewing, time_limit_s=0.1))
+    r = drape("camisole", out_dir=tmp_path, edge_length_m=0.03, config=config, render=False,
+              meshes=False, progress=False)  # fmt: skip
+    m = r.metrics
+    assert m["method"] == "direct"
+    assert not m["coarse_converged"] and "draped directly" in m["coarse_fallback"]
+    assert m["coarse_vertex_count"] < m["vertex_count"]
+    assert m["total_wall_time_s"] >= m["coarse_wall_time_s"] + m["wall_time_s"]

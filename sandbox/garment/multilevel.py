@@ -103,6 +103,11 @@ def drape_coarse_to_fine(pattern, mannequin, *, fabric=None, edge_length_m: floa
     hold the coarse stage (``coarse_*`` keys: its vertices, simulated and wall time, build
     time, steps) and the totals over both stages (``total_wall_time_s``, ``sim_time_s``).
     The sewing keys are the coarse stage's.
+
+    A coarse level that ends without reaching its stop rule has no rest shape to carry over
+    (measured: the silk circle skirt slides slowly down the hips at 3 cm and goes on sliding
+    at 1 cm, 10 cm below the direct drape). Then the fine level is not built and the return
+    is ``(None, coarse RunResult, coarse wall time [s])``: the caller drapes directly.
     """
     from sandbox.garment.pipeline import run_drape
     from sandbox.garment.repair import settle_repaired, untangle_state
@@ -122,6 +127,8 @@ def drape_coarse_to_fine(pattern, mannequin, *, fabric=None, edge_length_m: floa
     coarse_build_s = time.perf_counter() - t0
     coarse_result = run_drape(coarse, progress=progress)
     cm = coarse_result.metrics
+    if not cm["converged"]:
+        return None, coarse_result, coarse_build_s + cm["total_wall_time_s"]
 
     t1 = time.perf_counter()
     maps = {}
