@@ -58,6 +58,8 @@ def _summary(metrics: dict, x: np.ndarray, wall_s: float) -> dict:
         "residual_max_over_weight",
         "residual_mean_over_weight",
         "coarse_wall_time_s",
+        "method",
+        "coarse_fallback",
     )
     row = {k: metrics.get(k) for k in keys}
     row["total_s"] = wall_s
@@ -160,6 +162,11 @@ def _fmt(v, spec):
     return "–" if v is None else format(v, spec)
 
 
+def _ran(row: dict) -> str:
+    ran = row.get("method") or "–"
+    return f"{ran} (coarse level not at rest)" if row.get("coarse_fallback") else ran
+
+
 def write_table(rows: list[dict], method: str, extra: str = "") -> str:
     totals = sorted(r["total_s"] for r in rows)
     median = (
@@ -177,9 +184,13 @@ def write_table(rows: list[dict], method: str, extra: str = "") -> str:
         f"Median total {median:.1f} s, slowest {totals[-1]:.1f} s; "
         f"{sum(bool(r['meets_acceptance']) for r in rows)} of {len(rows)} meet the acceptance.",
         "",
-        "| garment | vertices | sewing s | drape s | total s | reference s | residual max / mean "
+        "`ran`: the method the drape used; a coarse-to-fine drape whose coarse level ends "
+        "short of rest goes direct (docs/drape.md), its coarse level counted in its total.",
+        "",
+        "| garment | ran | vertices | sewing s | drape s | total s | reference s "
+        "| residual max / mean "
         "| ease Δ bust / waist / hip cm | hem Δ cm | distance mean / 95 % cm | meets |",
-        "|---|---:|---:|---:|---:|---:|---|---|---:|---|---|",
+        "|---|---|---:|---:|---:|---:|---:|---|---|---:|---|---|",
     ]
     for r in rows:
         ease = " / ".join(
@@ -187,7 +198,8 @@ def write_table(rows: list[dict], method: str, extra: str = "") -> str:
             for k in ("ease_bust_delta_cm", "ease_waist_delta_cm", "ease_hip_delta_cm")
         )
         lines.append(
-            f"| {r['garment']} | {r['vertex_count']} | {_fmt(r['sew_wall_time_s'], '.1f')} "
+            f"| {r['garment']} | {_ran(r)} | {r['vertex_count']} "
+            f"| {_fmt(r['sew_wall_time_s'], '.1f')} "
             f"| {_fmt(r['wall_time_s'], '.1f')} | {r['total_s']:.1f} "
             f"| {_fmt(r.get('ref_total_s'), '.0f')} "
             f"| {_fmt(r['residual_max_over_weight'], '.2f')} / "
