@@ -46,6 +46,7 @@ def build_parser() -> argparse.ArgumentParser:
         "  python -m sandbox demo --out out/demo\n"
         "  python -m sandbox run my_scene.toml --out out/my_scene\n"
         "  python -m sandbox validate cantilever --json\n"
+        "  python -m sandbox validate cusick --quick\n"
         "  python -m sandbox fabrics\n"
         "  python -m sandbox drape t-shirt --size 12 --out out/t-shirt\n"
         "  python -m sandbox pattern a-line-skirt --bust 92 --out skirt.json\n"
@@ -88,11 +89,18 @@ def build_parser() -> argparse.ArgumentParser:
         help="compare the simulator with physical references",
         description="Run a validation case and print error against run time.",
     )
-    p.add_argument("case", choices=["cantilever"], help="cantilever: heavy elastica, ASTM D1388")
+    p.add_argument("case", choices=["cantilever", "cusick"],
+                   help="cantilever: heavy elastica, ASTM D1388; cusick: Cusick drape test, "
+                   "BS 5058, every fabric preset")  # fmt: skip
     p.add_argument("--json", action="store_true", help="one JSON object per run, one per line")
     p.add_argument("--quick", action="store_true", help="fewer meshes and time steps")
     p.add_argument("--lambdas", type=float, nargs="+", default=None,
-                   help="λ = wL³/B values (default 1 8 30)")  # fmt: skip
+                   help="cantilever: λ = wL³/B values (default 1 8 30)")  # fmt: skip
+    p.add_argument("--out", type=Path, default=None,
+                   help="cusick: directory for the table and shadows (default "
+                   "out/validate-cusick)")  # fmt: skip
+    p.add_argument("--presets", nargs="+", default=None,
+                   help="cusick: fabric presets to run (default: all)")  # fmt: skip
     _add_runtime_flags(p)
 
     sub.add_parser("fabrics", help="list the fabric presets and their parameters")
@@ -315,7 +323,10 @@ def cmd_drape(args) -> int:
         gap = m.get("seam_gap_max_m")
         print(f"seam gap max {0.0 if gap is None else gap * 1e3:.2f} mm, penetration "
               f"{(m['penetration_max_m'] or 0.0) * 1e3:.2f} mm, vertices inside body "
-              f"{m['vertices_inside_body']}, intersecting triangle pairs "
+              f"{m['vertices_inside_body']}, body vertices through the cloth "
+              f"{m.get('body_through_cloth_vertices')} (deepest "
+              f"{(m.get('body_through_cloth_max_m') or 0.0) * 1e3:.1f} mm), "
+              f"intersecting triangle pairs "
               f"{m['intersecting_triangle_pairs']}; ease bust {cm(m['ease_bust_cm'])}, "
               f"waist {cm(m['ease_waist_cm'])}, hip {cm(m['ease_hip_cm'])}")  # fmt: skip
         for r in m.get("untangle") or []:
@@ -404,6 +415,10 @@ def main(argv: list[str] | None = None) -> int:
             drape += ["--quiet"] * args.quiet
             return cmd_drape(parser.parse_args(drape))
         if args.command == "validate":
+            if args.case == "cusick":
+                from sandbox.validate.cusick import main as cusick_main
+
+                return cusick_main(args)
             from sandbox.validate.cantilever import main as cantilever_main
 
             return cantilever_main(args)

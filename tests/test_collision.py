@@ -200,8 +200,6 @@ def test_a_coarse_sheet_over_a_small_ball_hides_it_with_the_face_pass(faces):
     """A 4 cm mesh over an r = 6 cm ball: the triangles span the curvature. Without the face
     pass the ball shows through them (hundreds of its vertices lie outside the cloth);
     with it none does, and the sheet still rests on the ball (friction)."""
-    from sandbox.collision.body_probe import body_vertices_through_cloth
-
     sc = scene(
         {"size_m": [0.24, 0.24], "edge_length_m": 0.04, "origin_m": [-0.12, 0.07, 0.12],
          "rotation_deg": [-90, 0, 0]},
@@ -211,9 +209,7 @@ def test_a_coarse_sheet_over_a_small_ball_hides_it_with_the_face_pass(faces):
     )  # fmt: skip
     assert sc.solver.has_faces == faces
     r = run_scene(sc, progress=False)
-    ball = sc.model.colliders[0]
-    through = body_vertices_through_cloth(r.positions, sc.model.tri_indices_np,
-                                          ball.body_x.to_numpy(), ball.triangles_np)  # fmt: skip
+    through = r.metrics["body_through_cloth_vertices"]
     assert r.metrics["vertices_inside_body"] == 0
     assert r.positions[:, 1].max() > 0.06  # resting on top of the ball
     if faces:

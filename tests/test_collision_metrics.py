@@ -6,7 +6,11 @@ import numpy as np
 import pytest
 import trimesh
 
-from sandbox.collision.body_probe import body_inside_check, penetration_metrics
+from sandbox.collision.body_probe import (
+    body_inside_check,
+    body_through_cloth,
+    penetration_metrics,
+)
 from sandbox.collision.mesh_checks import edge_report
 from sandbox.collision.metrics import (
     count_intersecting_pairs,
@@ -366,7 +370,10 @@ def test_contact_metrics_of_a_scene():
     x = sc.state.positions() + [0.0, 0.15, 0.0]  # the sheet in y = 0.15
     r = np.linalg.norm(x, axis=1)
     out = contact_metrics(sc.model, x)
-    assert set(out) == {"penetration_max_m", "vertices_inside_body", "intersecting_triangle_pairs"}
+    assert set(out) == {"penetration_max_m", "vertices_inside_body", "intersecting_triangle_pairs",
+                        "body_through_cloth_vertices", "body_through_cloth_max_m"}  # fmt: skip
+    assert out["body_through_cloth_vertices"] > 0  # the cap above the sheet shows through
+    assert 0.0 < out["body_through_cloth_max_m"] <= 0.02
     assert out["penetration_max_m"] == pytest.approx(0.2 - r.min(), abs=1e-3)
     assert np.sum(r < 0.199) <= out["vertices_inside_body"] <= np.sum(r < 0.2)
     assert out["intersecting_triangle_pairs"] == 0
@@ -375,8 +382,43 @@ def test_contact_metrics_of_a_scene():
     assert contact_metrics(sc.model, folded)["intersecting_triangle_pairs"] > 100
     free = scene([])
     assert contact_metrics(free.model, free.state.positions()) == {
-        "penetration_max_m": None, "vertices_inside_body": None, "intersecting_triangle_pairs": 0
+        "penetration_max_m": None, "vertices_inside_body": None, "intersecting_triangle_pairs": 0,
+        "body_through_cloth_vertices": None, "body_through_cloth_max_m": None,
     }  # fmt: skip
+
+
+def _ball(radius=0.1):
+    b = trimesh.creation.icosphere(subdivisions=5, radius=radius)  # 10,242 vertices
+    return np.asarray(b.vertices), np.asarray(b.faces)
+
+
+@pytest.mark.parametrize("pose", [0, 1])
+def test_a_sheet_cutting_a_ball_shows_its_cap_through_the_cloth(pose):
+    """A flat sheet at y = 9 cm over a ball of r = 10 cm: the cap above the sheet shows
+    through it, up to 1 cm deep at the top, and every cap vertex is counted; the same sheet
+    at 10.3 cm (resting on the top) hides the ball."""
+    bv, bt = _ball()
+    v, t = sheet(30, 30, (0.3, 0.3))
+    v = v[:, [0, 2, 1]] - [0.15, 0.0, 0.15]  # the horizontal plane y = 0, centred
+    rigid = rotation(pose) if pose else np.eye(3)
+    cap = np.sum(bv[:, 1] > 0.09 + 1e-6)
+    m = body_through_cloth((v + [0, 0.09, 0]) @ rigid.T, t, bv @ rigid.T, bt)
+    assert m["body_through_cloth_vertices"] == cap > 100
+    assert m["body_through_cloth_max_m"] == pytest.approx(0.01, abs=1e-5)
+    m = body_through_cloth((v + [0, 0.103, 0]) @ rigid.T, t, bv @ rigid.T, bt)
+    assert m == {"body_through_cloth_vertices": 0, "body_through_cloth_max_m": 0.0}
+
+
+def test_a_cloth_shell_around_a_ball_hides_it_and_a_smaller_one_does_not():
+    """A closed cloth sphere of r + 3 mm around the ball covers it: nothing shows. A cloth
+    sphere 2 mm inside the ball's surface: every body vertex shows through by 2 mm. Inside
+    out, (the outward normals of a body wound the other way) the answer is the same."""
+    bv, bt = _ball()
+    sv, st = _ball(0.103)
+    assert body_through_cloth(sv, st, bv, bt)["body_through_cloth_vertices"] == 0
+    m = body_through_cloth(sv * (0.098 / 0.103), st, bv, bt[:, ::-1])
+    assert m["body_through_cloth_vertices"] == len(bv)
+    assert m["body_through_cloth_max_m"] == pytest.approx(0.002, rel=0.02)
 
 
 def test_bad_body_input():

@@ -196,25 +196,38 @@ def contact_metrics(model, x: np.ndarray) -> dict:
     """Contact measures independent of the solver's own detection, for ``metrics.json``.
 
     ``penetration_max_m`` and ``vertices_inside_body`` over the closed colliders (None
-    without one), and ``intersecting_triangle_pairs`` of the cloth by an exact
+    without one), ``body_through_cloth_vertices`` and ``body_through_cloth_max_m``: body
+    surface showing through the cloth where the cloth covers it
+    (:func:`~sandbox.collision.body_probe.body_through_cloth`; None without a closed
+    collider), and ``intersecting_triangle_pairs`` of the cloth by an exact
     triangle-triangle test: pairs sharing a vertex or a seam-joined point are excluded
     (:func:`~sandbox.collision.metrics.seam_joined_pairs`: sewn pairs and, at a junction of
     three panels, partners' partners). ``x``: (n, 3) cloth positions [m].
     """
-    from sandbox.collision.body_probe import body_inside_check, penetration_metrics
+    from sandbox.collision.body_probe import (
+        body_inside_check,
+        body_through_cloth,
+        penetration_metrics,
+    )
     from sandbox.collision.metrics import count_intersecting_pairs, seam_joined_pairs
 
-    out = {"penetration_max_m": None, "vertices_inside_body": None}
+    out = {"penetration_max_m": None, "vertices_inside_body": None,
+           "body_through_cloth_vertices": None, "body_through_cloth_max_m": None}  # fmt: skip
     closed = [c for c in model.colliders if c.closed]
     if closed:
-        depth, inside = 0.0, 0
+        depth, inside, through, through_depth = 0.0, 0, 0, 0.0
         for c in closed:
-            probe = body_inside_check(c.body_x.to_numpy().astype(np.float64), c.triangles_np,
-                                      name=c.name)  # fmt: skip
+            body_x = c.body_x.to_numpy().astype(np.float64)
+            probe = body_inside_check(body_x, c.triangles_np, name=c.name)
             m = penetration_metrics(x, probe)
             depth = max(depth, m["penetration_max_m"])
             inside += m["vertices_inside_body"]
-        out.update(penetration_max_m=depth, vertices_inside_body=inside)
+            shows = body_through_cloth(x, model.tri_indices_np, body_x, c.triangles_np)
+            through += shows["body_through_cloth_vertices"]
+            through_depth = max(through_depth, shows["body_through_cloth_max_m"])
+        out.update(penetration_max_m=depth, vertices_inside_body=inside,
+                   body_through_cloth_vertices=through,
+                   body_through_cloth_max_m=through_depth)  # fmt: skip
     joined = seam_joined_pairs(model.seam_pairs_np, model.particle_count)
     out["intersecting_triangle_pairs"] = count_intersecting_pairs(
         x, model.tri_indices_np, exclude_vertex_pairs=joined
