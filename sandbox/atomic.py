@@ -14,6 +14,8 @@ import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
+from sandbox.errors import SandboxError
+
 
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
@@ -23,8 +25,12 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     (Open3D, imageio) still work. On error the temporary file is removed.
     """
     final = Path(path)
-    final.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{final.stem}.", suffix=final.suffix, dir=final.parent)
+    make_dir(final.parent)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{final.stem}.", suffix=final.suffix,
+                                   dir=final.parent)  # fmt: skip
+    except OSError as exc:
+        raise SandboxError(f"{final}: cannot write in {final.parent} ({exc.strerror})") from None
     os.close(fd)
     tmp_path = Path(tmp)
     try:
@@ -32,10 +38,26 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
         if not tmp_path.exists() or tmp_path.stat().st_size == 0:
             raise OSError(f"{final}: the writer produced no data")
         os.chmod(tmp_path, 0o644)  # mkstemp makes 0600; outputs are ordinary files
-        os.replace(tmp_path, final)
+        try:
+            os.replace(tmp_path, final)
+        except OSError as exc:
+            raise SandboxError(f"{final}: cannot write it ({exc.strerror})") from None
     finally:
         if tmp_path.exists():
             tmp_path.unlink()
+
+
+def make_dir(path: str | os.PathLike) -> Path:
+    """Create the folder ``path`` and its parents (if missing); a SandboxError naming the
+    path if a file stands in the way or it cannot be created."""
+    p = Path(path)
+    try:
+        p.mkdir(parents=True, exist_ok=True)
+    except FileExistsError:
+        raise SandboxError(f"{p}: exists and is not a directory") from None
+    except OSError as exc:
+        raise SandboxError(f"{p}: cannot create the directory ({exc.strerror})") from None
+    return p
 
 
 def write_text(path: str | os.PathLike, text: str) -> Path:

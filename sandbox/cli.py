@@ -14,6 +14,7 @@ import sys
 from importlib import resources
 from pathlib import Path
 
+from sandbox import preflight
 from sandbox.errors import SandboxError
 from sandbox.garment.config import DRAPE_METHODS
 from sandbox.precision import add_precision_flags
@@ -271,6 +272,12 @@ def drape_config_from_args(args, base=None):
     return dataclasses.replace(config, **changes)
 
 
+def guard_summary(metrics: dict) -> str:
+    from sandbox.sim.guard import summary_line
+
+    return summary_line(metrics)
+
+
 def cmd_drape(args) -> int:
     from sandbox.garment import check_garment, default_edge_m, drape, garment_names
     from sandbox.garment.config import load_drape_config
@@ -293,6 +300,7 @@ def cmd_drape(args) -> int:
     if not args.edge_cm > 0:
         raise SandboxError(f"--edge-cm {args.edge_cm}: must be a positive length in cm")
     measurements = {k: getattr(args, k) for k in KEYS if getattr(args, k) is not None}
+    preflight.check_drape(args)
     runtime.init(args.arch, float64=args.float64)
     res = drape(args.garment, size=args.size, measurements=measurements or None,
                 fabric=args.fabric, out_dir=args.out, edge_length_m=args.edge_cm / 100.0,
@@ -309,6 +317,7 @@ def cmd_drape(args) -> int:
               f"{m['fabric']}; dt = {m['dt_s']:.3g} s; sewn in {m['sew_sim_time_s']:.2f} s, "
               f"{state} after {m['sim_time_s']:.2f} s simulated, "
               f"{m['total_wall_time_s']:.1f} s wall")  # fmt: skip
+        print(guard_summary(m))
         if m.get("method") == "coarse_to_fine":
             print(f"coarse to fine: {m['coarse_edge_length_m'] * 100:g} cm level "
                   f"({m['coarse_vertex_count']} vertices) sewn and draped in "
@@ -346,6 +355,7 @@ def cmd_gallery(args) -> int:
     from sandbox import runtime
     from sandbox.garment.gallery import gallery
 
+    preflight.check_gallery(args)
     runtime.init(args.arch, float64=args.float64)
     paths = gallery(args.out, quick=args.quick, size=args.size, names=args.only,
                     edge_length_m=None if args.edge_cm is None else args.edge_cm / 100.0,
@@ -364,9 +374,9 @@ def cmd_run(scene_path: Path, args) -> int:
     from sandbox.scene.run import run_scene
     from sandbox.scene.spec import load_scene
 
+    preflight.check_output_dir(args.out, "--out", names=preflight.RUN_OUTPUTS)
     spec = load_scene(scene_path)  # every input check happens before Taichi starts
-    runtime.init(args.arch, float64=args.float64)
-    scene = build_scene(spec)
+    scene = build_scene(spec, start_runtime=lambda: runtime.init(args.arch, float64=args.float64))
     if not args.quiet:
         print(f"{spec.name}: {scene.model.particle_count} vertices, {scene.model.tri_count} "
               f"triangles, {scene.model.hinge_count} hinges; dt = {scene.dt_s:.3g} s "
@@ -380,6 +390,7 @@ def cmd_run(scene_path: Path, args) -> int:
               f"{m['wall_time_s']:.1f} s wall (+{m['compile_time_s']:.1f} s compile); "
               f"last frame: max displacement {m['max_displacement_m'] * 1e3:.3f} mm, "
               f"mean {m['mean_displacement_m'] * 1e3:.4f} mm")  # fmt: skip
+        print(guard_summary(m))
         print("wrote:")
         for p in paths.values():
             print(f"  {p}")
@@ -415,6 +426,7 @@ def main(argv: list[str] | None = None) -> int:
             drape += ["--quiet"] * args.quiet
             return cmd_drape(parser.parse_args(drape))
         if args.command == "validate":
+            preflight.check_validate(args)
             if args.case == "cusick":
                 from sandbox.validate.cusick import main as cusick_main
 

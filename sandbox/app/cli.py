@@ -32,8 +32,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--offscreen", action="store_true", help="no window: play --script")
     p.add_argument("--script", type=Path, default=None, help="JSON list of actions")
     p.add_argument("--out", type=Path, default=Path("out/gui"), help="output directory")
-    p.add_argument("--width", type=int, default=1024)
-    p.add_argument("--height", type=int, default=768)
+    p.add_argument("--width", type=int, default=1024, help="window or frame width in pixels, "
+                   "64-8192 (default 1024)")  # fmt: skip
+    p.add_argument("--height", type=int, default=768, help="window or frame height in pixels, "
+                   "64-8192 (default 768)")  # fmt: skip
     p.add_argument("--fps", type=float, default=30.0,
                    help="target display rate: the simulation gets what is left of each "
                    "frame (default 30)")  # fmt: skip
@@ -53,6 +55,9 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
+        from sandbox.preflight import check_gui
+
+        actions = check_gui(args)  # every flag and the script, before Taichi starts
         from sandbox import runtime
         from sandbox.app.session import Session
 
@@ -60,13 +65,6 @@ def main(argv: list[str] | None = None) -> int:
         runtime.init(
             args.arch, float64=runtime.is_float64() if runtime.is_initialised() else args.float64
         )
-        if args.offscreen and args.script is None:
-            raise SandboxError("--offscreen needs --script FILE (a JSON list of actions)")
-        actions = None
-        if args.script is not None:
-            from sandbox.app.script import load_script
-
-            actions = load_script(args.script)
         session = Session(args.garment, size=args.size, edge_cm=args.edge_cm,
                           fabric=args.fabric, sewn=args.sewn,
                           self_collision=args.self_collision)  # fmt: skip
@@ -80,8 +78,6 @@ def main(argv: list[str] | None = None) -> int:
             return 0
         from sandbox.app.gui import run_window
 
-        if not args.fps > 0 or (args.sim_ms is not None and not args.sim_ms > 0):
-            raise SandboxError("--fps and --sim-ms must be positive")
         budget = None if args.sim_ms is None else args.sim_ms / 1000.0
         run_window(session, size=(args.width, args.height), target_fps=args.fps,
                    frame_budget_s=budget, max_frames=args.max_frames,

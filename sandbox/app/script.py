@@ -59,7 +59,78 @@ def load_script(path) -> list[dict]:
         if unknown:
             raise SandboxError(f"{p}: action {i}: unknown action {unknown[0]!r} (known: "
                                f"{', '.join(ACTIONS)})")  # fmt: skip
+        problem = _argument_problem(a)
+        if problem:
+            raise SandboxError(f"{p}: action {i}: {problem}")
     return data
+
+
+def _is_int(v) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
+def _is_click(v) -> bool:
+    def unit(c) -> bool:
+        return isinstance(c, int | float) and not isinstance(c, bool) and 0 <= c <= 1
+
+    return isinstance(v, list) and len(v) == 2 and all(map(unit, v))
+
+
+def _is_edge(e) -> bool:
+    return isinstance(e, list) and len(e) == 2 and isinstance(e[0], str) and _is_int(e[1])
+
+
+def _argument_problem(a: dict) -> str | None:
+    """What is wrong with one action's arguments (None if nothing), without a session."""
+    names = [k for k in a if k in ACTIONS]
+    if len(names) != 1:
+        return f"one action per object, got {', '.join(names) or 'none'}"
+    key, v = names[0], a[names[0]]
+    if key in ("gravity", "record", "sew_picked", "sew_pattern", "undo", "clear",
+               "save_meshes") and not isinstance(v, bool):  # fmt: skip
+        return f"{key!r} takes true or false, got {v!r}"
+    if "shift" in a and not isinstance(a["shift"], bool):
+        return f"'shift' takes true or false, got {a['shift']!r}"
+    if "side" in a and a["side"] not in ("a", "b"):
+        return f"'side' must be a or b, got {a['side']!r}"
+    if key in ("run_frames", "pin", "unpin") and not (_is_int(v) and v >= (key == "run_frames")):
+        return f"{key!r} takes a whole number >= {int(key == 'run_frames')}, got {v!r}"
+    if key == "set":
+        from sandbox.mannequin.measurements import KEYS, SUPPORTED_RANGE_CM
+
+        if not isinstance(v, dict) or not v:
+            return f"'set' takes an object of measurements in cm ({', '.join(KEYS)})"
+        for k, cm in v.items():
+            if k not in KEYS:
+                return f"'set': unknown measurement {k!r} (known: {', '.join(KEYS)})"
+            lo, hi = SUPPORTED_RANGE_CM[k]
+            if isinstance(cm, bool) or not isinstance(cm, int | float) or not lo <= cm <= hi:
+                return f"'set': {k} must be a number of cm in {lo:g}-{hi:g}, got {cm!r}"
+    if key == "size":
+        from sandbox.mannequin.measurements import load_size_table
+
+        sizes = [e.size for e in load_size_table()]
+        if not _is_int(v) or v not in sizes:
+            return f"'size' {v!r} is not in the size database (sizes {sizes})"
+    if key == "fabric":
+        from sandbox.sim.materials import get_material
+
+        try:
+            get_material(v)
+        except SandboxError as exc:
+            return f"'fabric': {exc}"
+    if key == "sew" and not (isinstance(v, dict) and set(v) == {"a", "b"}
+                             and all(isinstance(v[s], list) and v[s] and all(map(_is_edge, v[s]))
+                                     for s in "ab")):  # fmt: skip
+        return f"'sew' takes an object {{a: [[panel, edge], ...], b: [...]}}, got {v!r}"
+    if key == "click" and not _is_click(v):
+        return f"'click' takes [u, v] window coordinates in [0, 1], got {v!r}"
+    if key == "click_edge" and not _is_edge(v):
+        return f"'click_edge' takes [panel, edge number], got {v!r}"
+    suffix = {"save_frame": ".png", "save_pattern": ".json"}.get(key)
+    if suffix and not (isinstance(v, str) and Path(v).name == v and v.endswith(suffix)):
+        return f"{key!r} takes a file name ending in {suffix} (written into --out), got {v!r}"
+    return None
 
 
 def run_script(session, actions: list[dict], out_dir, *, size=(480, 480), source="<script>",
@@ -68,10 +139,9 @@ def run_script(session, actions: list[dict], out_dir, *, size=(480, 480), source
     import imageio.v3 as iio
 
     from sandbox.app.gui import Renderer, Sewing
-    from sandbox.atomic import atomic_path, write_json
+    from sandbox.atomic import atomic_path, make_dir, write_json
 
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    out = make_dir(out_dir)
     r = Renderer(session, size, show_window=False)
     sewing = Sewing(session, r)
     frames, recording, log = [], False, []

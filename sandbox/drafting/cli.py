@@ -52,6 +52,11 @@ def run(args: argparse.Namespace) -> int:
         raise SandboxError("pattern: name a GARMENT (or use --list)")
     if args.out is None:
         raise SandboxError("pattern: --out FILE.json is required")
+    from sandbox.preflight import check_output_file
+
+    check_output_file(args.out, "--out")
+    if args.png is not None:
+        check_output_file(args.png, "--png", suffixes=(".png",))
     garment = load_garment(args.garment)
     given = {k: getattr(args, k) for k in KEYS if getattr(args, k) is not None}
     base = size_entry(args.size if args.size is not None else 12)

@@ -6,8 +6,6 @@ interrupted write leaves nothing half-written.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
 GARMENT_COLOR = (0.32, 0.45, 0.75)
@@ -22,12 +20,11 @@ def write_drape(scene, result, metrics: dict, out_dir, *, render: bool = True,
     ``garment.ply`` with the pattern coordinates [m] as UVs, ``body.obj``), the front and
     back renders (unless ``render=False``: ``render.png``, ``render_back.png``) and
     ``metrics.json`` into ``out_dir``. Returns {kind: path}."""
-    from sandbox.atomic import write_json
+    from sandbox.atomic import make_dir, write_json
     from sandbox.render.meshio import write_mesh
     from sandbox.scene.output import _jsonable
 
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    out = make_dir(out_dir)
     model, mannequin = scene.model, scene.garment.mannequin
     x = result.positions
     tris = model.tri_indices_np

@@ -88,14 +88,14 @@ def run(args: argparse.Namespace) -> int:
     """Handler of ``mannequin``; raises :class:`SandboxError` on bad input."""
     from sandbox.mannequin.io import load_body_mesh, write_mannequin
     from sandbox.mannequin.model import DEFAULT_RESOLUTION, build_mannequin
+    from sandbox.preflight import check_mannequin
 
     given = {k: getattr(args, k) for k in KEYS if getattr(args, k) is not None}
-    resolution = args.resolution or DEFAULT_RESOLUTION
-    if resolution % 16 or not 32 <= resolution <= 128:
-        raise SandboxError(f"--resolution {resolution}: must be a multiple of 16 in 32-128")
+    if args.body is not None and (given or args.size is not None):
+        raise SandboxError("--body: cannot be combined with --size or measurement flags")
+    check_mannequin(args)  # every flag and --out, before a mesh is built
+    resolution = DEFAULT_RESOLUTION if args.resolution is None else args.resolution
     if args.body is not None:
-        if given or args.size is not None:
-            raise SandboxError("--body: cannot be combined with --size or measurement flags")
         mannequin = load_body_mesh(args.body)
     else:
         base = size_entry(args.size if args.size is not None else 12)

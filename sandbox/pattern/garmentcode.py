@@ -68,6 +68,10 @@ def _read_json(path: Path):
         raise SandboxError(
             f"{path}: not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})"
         ) from None
+    except UnicodeDecodeError as exc:
+        raise SandboxError(f"{path}: not a UTF-8 text file ({exc.reason})") from None
+    except (ValueError, RecursionError) as exc:  # a 5000-digit number, deep nesting
+        raise SandboxError(f"{path}: cannot read the JSON ({exc})") from None
 
 
 def _name_from_path(path: Path) -> str:
@@ -80,7 +84,7 @@ def _name_from_path(path: Path) -> str:
 def _num_list(v, n: int, at: str) -> np.ndarray:
     ok = isinstance(v, list) and len(v) == n
     ok = ok and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v)
-    if not ok or not all(math.isfinite(x) for x in v):
+    if not ok or not all(math.isfinite(float(x)) if abs(x) < 1e300 else False for x in v):
         raise SandboxError(f"{at} must be a list of {n} finite numbers, got {v!r}")
     return np.asarray(v, float)
 
@@ -323,6 +327,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--fabric", default=DEFAULT_FABRIC, help="fabric preset (default: cotton)")
     args = ap.parse_args(argv)
     try:
+        from sandbox.preflight import check_output_file
+
+        check_output_file(args.output, "OUTPUT")
         pattern = load_garmentcode(args.input, fabric=args.fabric)
         out = save_pattern(pattern, args.output)
     except SandboxError as exc:

@@ -168,8 +168,11 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
+        from sandbox.atomic import make_dir
+        from sandbox.preflight import check_render
         from sandbox.render import read_mesh
 
+        check_render(args)
         if args.garment is None:
             if args.result is None:
                 raise SandboxError("give a result directory or --garment FILE")
@@ -179,7 +182,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.body is not None:
             body_path = args.body
         out = args.out or args.result or garment_path.parent
-        out.mkdir(parents=True, exist_ok=True)
+        make_dir(out)
         garment = read_mesh(garment_path)
         body = read_mesh(body_path) if body_path is not None else None
         t0 = time.perf_counter()

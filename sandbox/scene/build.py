@@ -209,12 +209,15 @@ def build_self_collider(model: Model, spec: SceneSpec,
 
 
 def build_scene(spec: SceneSpec, *, implicit: ImplicitConfig | None = None,
-                self_contact: SelfContactConfig | None = None) -> Scene:  # fmt: skip
+                self_contact: SelfContactConfig | None = None,
+                start_runtime=None) -> Scene:  # fmt: skip
     """Mesh, check and allocate a scene. Initialises Taichi on the CPU if nobody did.
 
     ``implicit`` and ``self_contact`` set the implicit solver's and the self-collision's
     tunables (default: their dataclasses' defaults); the scene's ``[simulation]
-    linear_solver`` overrides ``implicit.linear_solver``."""
+    linear_solver`` overrides ``implicit.linear_solver``. ``start_runtime``: called instead
+    of :func:`sandbox.runtime.ensure_init` once the meshes and pins are checked (the CLI
+    starts Taichi there with its --arch, so that bad input never waits for Taichi)."""
     builder = ModelBuilder()
     meshed = []
     for c in spec.colliders:
@@ -224,7 +227,7 @@ def build_scene(spec: SceneSpec, *, implicit: ImplicitConfig | None = None,
         uv, tris = mesh_cloth(c)
         pins = resolve_pins(c, uv)
         meshed.append((c, uv, tris, pins))
-    runtime.ensure_init()
+    (start_runtime or runtime.ensure_init)()
     for c, uv, tris, pins in meshed:
         builder.add_cloth(
             name=c.name,

@@ -7,11 +7,10 @@ half-written file. A diverged run writes nothing (the caller never gets here).
 from __future__ import annotations
 
 import logging
-from pathlib import Path
 
 import numpy as np
 
-from sandbox.atomic import write_json
+from sandbox.atomic import make_dir, write_json
 from sandbox.scene.build import Scene
 from sandbox.scene.run import RunResult
 
@@ -28,8 +27,7 @@ def write_outputs(scene: Scene, result: RunResult, out_dir, *, render: bool = Tr
     """
     from sandbox.render.meshio import write_mesh
 
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    out = make_dir(out_dir)
     model = scene.model
     x = result.positions
     tris = model.tri_indices_np

@@ -269,6 +269,7 @@ def _cloth(r: _Reader, t: dict, w: str) -> ClothSpec:
     if not isinstance(pins, list):
         raise SandboxError(f"{r.source}: {w}.pins must be a list of tables")
     c.pins = [_pin(r, p, f"{w}.pins[{i}]") for i, p in enumerate(pins)]
+    _check_pins(c)
     lines = t.get("mesh_lines_m", [])
     if not isinstance(lines, list):
         raise SandboxError(f"{r.source}: {w}.mesh_lines_m must be a list of [[u0, v0], [u1, v1]]")
@@ -331,16 +332,38 @@ def _collider(r: _Reader, t, w: str) -> ColliderSpec:
         p["scale"] = r.number(t, w, "scale", 1.0, positive=True)
         p["origin_m"] = r.vector(t, w, "origin_m", 3, (0.0, 0.0, 0.0))
     if shape == "mannequin":
-        size = t.get("size")
-        if size is not None and (isinstance(size, bool) or not isinstance(size, int)):
-            r.fail(w, "size", f"must be a size number from the database, got {size!r}")
-        p["size"] = size
-        m = t.get("measurements_cm", {})
-        if not isinstance(m, dict):
-            r.fail(w, "measurements_cm", "must be a table of measurements in cm")
-        p["measurements_cm"] = m
+        p["size"], p["measurements_cm"] = _mannequin(r, t, w)
     return ColliderSpec(name=r.string(t, w, "name", w), shape=shape, params=p,
                         where=f"{r.source}: {w}")  # fmt: skip
+
+
+def _mannequin(r: _Reader, t: dict, w: str) -> tuple[int | None, dict]:
+    """A mannequin collider's database size and its seven measurements [cm]: those given,
+    the rest from the size (default 12); every value checked against the supported ranges."""
+    from sandbox.mannequin.measurements import KEYS, load_size_table, validate
+
+    size = t.get("size")
+    sizes = {e.size: e for e in load_size_table()}
+    if size is not None and (isinstance(size, bool) or not isinstance(size, int)):
+        r.fail(w, "size", f"must be a size number from the database, got {size!r}")
+    if size is not None and size not in sizes:
+        r.fail(w, "size", f"{size} is not in the size database (sizes {list(sizes)})")
+    m = t.get("measurements_cm", {})
+    if not isinstance(m, dict):
+        r.fail(w, "measurements_cm", "must be a table of measurements in cm")
+    unknown = sorted(set(m) - set(KEYS))
+    if unknown:
+        r.fail(w, "measurements_cm", f"unknown key {unknown[0]!r} (known: {', '.join(KEYS)})")
+    given = {k: r.number(m, f"{w} measurements_cm", k, positive=True) for k in m}
+    if not given:
+        return size, {}
+    full = sizes[12 if size is None else size].measurements.replace(**given)
+    names = {k: f"measurements_cm.{k}" for k in KEYS}
+    try:
+        validate(full, flag_names=names)
+    except SandboxError as exc:
+        raise SandboxError(f"{r.source}: {w}: {exc}") from None
+    return size, full.to_dict()
 
 
 def _seam(r: _Reader, t, w: str, cloths: dict) -> SeamSpec:
@@ -410,6 +433,27 @@ def _pin(r: _Reader, t, w: str) -> PinSpec:
     else:
         p.corners = r.choice(t, w, "corners", SIDES + ("all",), None)
     return p
+
+
+def _check_pins(c: ClothSpec) -> None:
+    """What can be said of the pins before meshing: no negative vertex index, no empty or
+    inverted box, no box beside the outline (indices past the mesh are found at meshing)."""
+    us, vs = [u for u, _ in c.outline_m], [v for _, v in c.outline_m]
+    for p in c.pins:
+        if p.vertices is not None and any(i < 0 for i in p.vertices):
+            bad = next(i for i in p.vertices if i < 0)
+            raise SandboxError(f"{p.where}.vertices: index {bad} is negative (vertices are "
+                               f"numbered from 0)")  # fmt: skip
+        if p.region_m is None:
+            continue
+        (u0, v0), (u1, v1) = p.region_m
+        if u0 > u1 or v0 > v1:
+            raise SandboxError(f"{p.where}.region_m: must be [[u_min, v_min], [u_max, v_max]], "
+                               f"got {[list(p.region_m[0]), list(p.region_m[1])]}")  # fmt: skip
+        if u1 < min(us) or u0 > max(us) or v1 < min(vs) or v0 > max(vs):
+            raise SandboxError(f"{p.where}.region_m: the box lies outside the piece (its "
+                               f"outline spans u {min(us):g}..{max(us):g} m, v "
+                               f"{min(vs):g}..{max(vs):g} m)")  # fmt: skip
 
 
 class _Reader:

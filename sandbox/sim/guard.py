@@ -120,6 +120,21 @@ def max_strain(model, x: np.ndarray) -> float:
     return float(np.max(s) - 1.0)
 
 
+def summary_line(metrics: dict) -> str:
+    """One line on what the guard did in a run, from its metrics (the CLI's summary):
+    ``guard: 3 rollbacks, dt 0.12 -> 0.06 ms (smallest), 0.12 ms at the end``."""
+    if not metrics.get("guard_enabled", True):
+        return "guard: off (NaN checks only)"
+    dt_ms = metrics.get("dt_s", math.nan) * 1e3
+    n = int(metrics.get("guard_rollbacks", 0))
+    if n == 0:
+        return f"guard: no rollbacks, dt {dt_ms:.3g} ms throughout"
+    low = metrics.get("guard_min_dt_s", math.nan) * 1e3
+    end = metrics.get("guard_final_dt_s", math.nan) * 1e3
+    return (f"guard: {n} rollback{'s' * (n != 1)}, dt {dt_ms:.3g} -> {low:.3g} ms (smallest), "
+            f"{end:.3g} ms at the end")  # fmt: skip
+
+
 @dataclass
 class StepGuard:
     """Advance a scene a frame at a time with rollback and adaptive dt.

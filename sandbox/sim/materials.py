@@ -333,6 +333,7 @@ def get_material(name: str, *, where: str | None = None) -> Material:
 
 _SPEC_KEYS = ("preset", "name", *_NUMERIC_FIELDS, "bend_Nm")
 _DIRECTIONAL_BEND = ("bend_warp_Nm", "bend_weft_Nm", "bend_bias_Nm")
+_MEMBRANE = ("stretch_u_N_m", "stretch_v_N_m", "shear_N_m")
 
 
 def _check_number(value, key: str, where: str) -> float:
@@ -345,6 +346,9 @@ def _check_number(value, key: str, where: str) -> float:
         raise SandboxError(f"{where}: {key!r} must be >= 0, got {value!r}")
     if key == "density_kg_m2" and v == 0:
         raise SandboxError(f"{where}: {key!r} must be > 0 (areal density in kg/m^2), got 0")
+    if key in _MEMBRANE and v == 0:
+        raise SandboxError(f"{where}: {key!r} must be > 0: without stretch and shear "
+                           f"stiffness nothing holds the cloth together, got 0")  # fmt: skip
     return v
 
 
@@ -362,8 +366,9 @@ def material_from_spec(spec, *, where: str) -> Material:
       ``bend_warp_Nm``, ``bend_weft_Nm``, ``bend_bias_Nm``, not both kinds.
 
     Without ``preset`` every quantity must be given (bending as ``bend_Nm`` or all three
-    directions). Values must be finite numbers >= 0; zero stiffness switches that energy
-    off. Every error is a SandboxError whose message starts with ``where`` (e.g.
+    directions). Values must be finite numbers >= 0; the stretch and shear stiffnesses
+    must be > 0 (a cloth without them falls apart), a zero bending stiffness switches
+    bending off. Every error is a SandboxError whose message starts with ``where`` (e.g.
     ``"scene.toml: cloth[0].material"``) and names the offending key.
     """
     if isinstance(spec, Material):

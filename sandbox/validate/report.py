@@ -222,6 +222,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     args = ap.parse_args(argv)
     try:
+        from sandbox.preflight import check_output_dir
+
+        check_output_dir(args.out, "--out")
         if args.render:
             return _render(args)
         return _report(args)
