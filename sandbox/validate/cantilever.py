@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sandbox import runtime
+from sandbox.errors import SandboxError
 from sandbox.scene.build import build_scene
 from sandbox.scene.run import SimulationDiverged, run_scene
 from sandbox.scene.spec import ClothSpec, PinSpec, SceneSpec, SimulationSpec, StopSpec
@@ -33,6 +34,12 @@ SHEAR_N_M = 100.0
 G = 9.80665
 STOP_MAX_M = 2e-6  # per frame: far tighter than the paper's drape rule, for a static answer
 STOP_MEAN_M = 1e-6
+TIME_LIMIT_S = 30.0
+# λ the simulated strip settles for: below, the explicit step (∝ λ^1/2, set by bending)
+# makes runs ever longer (260 000 steps at 1e-3 and 5 mm, 30 000 at 1); above, the
+# damping 2ω₁ (∝ λ^-1/2) leaves the strip swinging past TIME_LIMIT_S (λ = 1e4 settles
+# after 27 s). The reference solves to 1e5.
+LAMBDA_RANGE = (1e-3, 1e4)
 
 
 @dataclass
@@ -99,7 +106,7 @@ def cantilever_spec(lam: float, edge_length_m: float, dt_s: float | None = None)
             max_displacement_m=STOP_MAX_M,
             mean_displacement_m=STOP_MEAN_M,
             frames=3,
-            time_limit_s=30.0,
+            time_limit_s=TIME_LIMIT_S,
             wall_limit_s=600.0,
         ),  # fmt: skip
         cloths=[cloth],
@@ -158,10 +165,22 @@ def sweep(lambdas, edge_lengths, dt_scales, on_run=None) -> list[CantileverRun]:
     return runs
 
 
+def check_lambdas(lambdas) -> None:
+    """Refuse a λ outside LAMBDA_RANGE before anything is built (SandboxError, one line)."""
+    lo, hi = LAMBDA_RANGE
+    for lam in lambdas:
+        if not lo <= lam <= hi:  # also NaN
+            raise SandboxError(f"--lambdas {lam:g}: the cantilever is simulated for {lo:g} <= "
+                               f"lambda <= {hi:g} (a stiffer strip needs ever smaller steps, a "
+                               f"floppier one does not settle within the {TIME_LIMIT_S:g} s "
+                               "time limit)")  # fmt: skip
+
+
 def main(args) -> int:
     """``python -m sandbox validate cantilever [--json] [--quick] [--lambdas ...]``."""
-    runtime.init(args.arch, float64=args.float64)
     lambdas = args.lambdas or [1.0, 8.0, 30.0]
+    check_lambdas(lambdas)
+    runtime.init(args.arch, float64=args.float64)
     edges = [0.005] if args.quick else [0.005, 0.0025]
     scales = [1.0] if args.quick else [1.0, 0.5]
     if not args.json:
