@@ -118,8 +118,8 @@ BAD_CASES = {
     ),
     "self-intersecting": (
         _set(["panels", "front", "vertices"], [[-30, 0], [30, 0], [-18, 60], [18, 60]]),
-        "panel 'front': edge 'side_left' (#1) crosses edge 'side_right' (#3): self-intersecting "
-        "outline",
+        "panel 'front': edge 'side_left' (#1) crosses edge 'side_right' (#3) at (0, 49.56) cm: "
+        "self-intersecting outline",
     ),
     "curve crossing another edge": (
         lambda d: _front_edges(d)[2].update(curve={"type": "arc", "sagitta": 70}),

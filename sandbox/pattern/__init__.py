@@ -25,6 +25,7 @@ _EXPORTS = {
     "mesh_pattern": "panel_mesh",
     "pattern_seam_sides": "panel_mesh",
     "load_garmentcode": "garmentcode",
+    "PatternLimits": "limits",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -16,11 +16,22 @@ import sys
 from dataclasses import dataclass
 
 import numpy as np
-import triangle as tr
 
 from sandbox.errors import SandboxError
 from sandbox.pattern import curves
-from sandbox.pattern.mesh2d import min_angle_deg, morton_order, orient_ccw
+from sandbox.pattern.crossing import OutlineTooIntricate, first_crossing
+from sandbox.pattern.limits import DEFAULT_LIMITS, PatternLimits
+from sandbox.pattern.mesh2d import (
+    DUPLICATE_TOLERANCE,
+    check_mesh_size,
+    estimate_vertex_count,
+    min_angle_deg,
+    morton_order,
+    orient_ccw,
+    polygon_area,
+    triangulate,
+)
+from sandbox.pattern.reader import crossing_message
 from sandbox.pattern.spec import Panel, Pattern, load_pattern
 
 DEFAULT_EDGE_M = 0.01
@@ -60,6 +71,7 @@ def mesh_panel(
     *,
     min_angle_deg: float = MIN_ANGLE_DEG,
     where: str | None = None,
+    limits: PatternLimits = DEFAULT_LIMITS,
 ) -> PanelMesh:
     """Irregular quality mesh of a panel with its edges resolved to vertices.
 
@@ -69,13 +81,23 @@ def mesh_panel(
             triangles at most about the area of an equilateral triangle of this side.
         min_angle_deg: Triangle's minimum angle (quality) constraint.
         where: names the panel in error messages.
+        limits: :class:`~sandbox.pattern.limits.PatternLimits`; a mesh estimated over
+            ``max_mesh_vertices`` is refused before anything is sampled.
+
+    The sampled boundary is checked before Triangle sees it (finite, no repeated point, no
+    self-crossing); every failure is a SandboxError naming ``where`` and the edges.
     """
     where = where or f"panel {panel.name!r}"
     if not (edge_length_m > 0 and math.isfinite(edge_length_m)):
         raise SandboxError(f"{where}: edge length must be a positive number, got {edge_length_m}")
+    vertices = panel_vertex_estimate(panel, edge_length_m, where)
+    check_mesh_size(vertices, limits.max_mesh_vertices, where,
+                    f"a {edge_length_m * 100:g} cm mesh of this panel")  # fmt: skip
     samples = _sample_edges(panel, edge_length_m)
     boundary = np.vstack([s[:-1] for s in samples])
     nb = len(boundary)
+    owner = np.repeat(np.arange(len(samples)), [len(s) - 1 for s in samples])
+    _check_boundary(panel, boundary, owner, where)
     starts = np.cumsum([0] + [len(s) - 1 for s in samples])
     edge_vertices = []
     for k, s in enumerate(samples):
@@ -84,17 +106,9 @@ def mesh_panel(
         edge_vertices.append(idx.astype(np.int64))
     segments = np.stack([np.arange(nb), (np.arange(nb) + 1) % nb], axis=1)
     max_area = math.sqrt(3.0) / 4.0 * edge_length_m**2 * 1.4
-    try:
-        out = tr.triangulate(
-            {"vertices": boundary, "segments": segments},
-            f"pq{min_angle_deg:g}a{np.format_float_positional(max_area, trim='-')}YQ",
-        )
-    except Exception as exc:  # Triangle reports bad input as generic errors
-        raise SandboxError(f"{where}: could not mesh the outline ({exc})") from None
-    if "triangles" not in out or len(out["triangles"]) == 0:
-        raise SandboxError(f"{where}: meshing produced no triangles (self-intersecting outline?)")
-    pts = np.asarray(out["vertices"], dtype=np.float64)
-    tris = np.asarray(out["triangles"], dtype=np.int64)
+    switches = f"pq{min_angle_deg:g}a{np.format_float_positional(max_area, trim='-')}YQ"
+    out = triangulate({"vertices": boundary, "segments": segments}, switches, where)
+    pts, tris = out["vertices"], out["triangles"]
     if len(pts) < nb or not np.array_equal(pts[:nb], boundary):
         raise SandboxError(f"{where}: the mesher moved the boundary points")
     seg_out = np.sort(np.asarray(out.get("segments", segments)), axis=1)
@@ -126,6 +140,44 @@ def mesh_panel(
     )
 
 
+def panel_vertex_estimate(panel: Panel, edge_length_m: float, where: str) -> float:
+    """About how many vertices a mesh of ``edge_length_m`` [m] of the panel has (from its
+    area and outline length; inf when that overflows), before anything is sampled."""
+    lengths = [e.length_m for e in panel.edges]
+    if not all(math.isfinite(v) for v in lengths):
+        raise SandboxError(f"{where}: an edge has no finite length")
+    coarse = np.vstack([e.sample(max(v, 1e-300) / 24 * (1 + 1e-9))[:-1]
+                        for e, v in zip(panel.edges, lengths, strict=True)])  # fmt: skip
+    return estimate_vertex_count(polygon_area(coarse), sum(lengths), edge_length_m)
+
+
+def _check_boundary(panel: Panel, boundary: np.ndarray, owner: np.ndarray, where: str):
+    """What Triangle needs of the sampled boundary (n, 2) [m] (segment k on edge owner[k]):
+    finite, no point repeated, no self-crossing; a SandboxError naming the edges otherwise."""
+    if not np.all(np.isfinite(boundary)):
+        raise SandboxError(f"{where}: the outline has a NaN or infinite coordinate")
+    scale = float(np.ptp(boundary, axis=0).max())
+    gap = np.linalg.norm(np.roll(boundary, -1, axis=0) - boundary, axis=1)
+    short = gap <= DUPLICATE_TOLERANCE * scale
+    if np.any(short):
+        k = int(np.argmax(short))
+        e = panel.edges[owner[k]]
+        raise SandboxError(
+            f"{where}: edge {e.name!r} (#{owner[k]}) has two boundary samples at the same point "
+            f"({_cm(boundary[k])}); remove the repeated corner or the zero-length edge"
+        )
+    try:
+        hit = first_crossing(boundary, scale)
+    except OutlineTooIntricate as exc:
+        raise SandboxError(f"{where}: {exc}") from None
+    if hit is not None:
+        raise SandboxError(f"{where}: {crossing_message(panel, boundary, owner, hit)}")
+
+
+def _cm(xy) -> str:
+    return f"{xy[0] * 100:.4g}, {xy[1] * 100:.4g} cm"
+
+
 def _sample_edges(panel: Panel, h: float) -> list[np.ndarray]:
     """Boundary samples of every edge: even by arc length (``Edge.sample``), except that an
     edge whose neighbour ends in a segment shorter than GRADE_BELOW times its own spacing is
@@ -155,11 +207,23 @@ def _sample_edges(panel: Panel, h: float) -> list[np.ndarray]:
     return out
 
 
-def mesh_pattern(pattern: Pattern, edge_length_m: float | None = None) -> dict[str, PanelMesh]:
-    """:func:`mesh_panel` for every panel; the target edge defaults to the file's mesh_edge."""
+def mesh_pattern(
+    pattern: Pattern, edge_length_m: float | None = None, *, limits: PatternLimits = DEFAULT_LIMITS
+) -> dict[str, PanelMesh]:
+    """:func:`mesh_panel` for every panel; the target edge defaults to the file's mesh_edge.
+
+    The whole pattern's mesh is estimated first and refused (SandboxError) above
+    ``limits.max_mesh_vertices``, before any panel is meshed.
+    """
     h = pattern.mesh_edge_m if edge_length_m is None else edge_length_m
+    if not (h > 0 and math.isfinite(h)):
+        raise SandboxError(f"{pattern.source}: edge length must be a positive number, got {h}")
+    total = sum(panel_vertex_estimate(p, h, f"{pattern.source}: panel {name!r}")
+                for name, p in pattern.panels.items())  # fmt: skip
+    check_mesh_size(total, limits.max_mesh_vertices, pattern.source,
+                    f"a {h * 100:g} cm mesh of the {len(pattern.panels)} panels")  # fmt: skip
     return {
-        name: mesh_panel(p, h, where=f"{pattern.source}: panel {name!r}")
+        name: mesh_panel(p, h, where=f"{pattern.source}: panel {name!r}", limits=limits)
         for name, p in pattern.panels.items()
     }
 

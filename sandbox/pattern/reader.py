@@ -7,13 +7,22 @@ from __future__ import annotations
 
 import copy
 import json
+import logging
 import math
+from collections import Counter
 from functools import cache
 from importlib import resources
 
 import numpy as np
 
 from sandbox.errors import SandboxError
+from sandbox.pattern.crossing import (
+    OutlineTooIntricate,
+    crossing_point,
+    first_crossing,
+    on_one_line,
+)
+from sandbox.pattern.limits import DEFAULT_LIMITS, PatternLimits
 from sandbox.pattern.mesh2d import polygon_area
 from sandbox.pattern.spec import (
     BODIES,
@@ -40,6 +49,8 @@ from sandbox.pattern.spec import (
     SeamSpec,
 )
 
+log = logging.getLogger("sandbox.pattern")
+
 SCHEMA_FILE = "pattern.schema.json"
 MIN_EDGE_M = 1e-6
 _CHECK_SEGMENTS = 24  # polyline pieces per curved edge for the self-intersection test
@@ -65,14 +76,21 @@ def schema_errors(data) -> list[str]:
 
 
 def _is_num(v) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+    if not isinstance(v, (int, float)) or isinstance(v, bool):
+        return False
+    try:
+        return math.isfinite(v)
+    except OverflowError:  # an integer too large for a float
+        return False
 
 
 class PatternReader:
     """Validation with messages that name the file, the panel and the edge."""
 
-    def __init__(self, src: str):
+    def __init__(self, src: str, limits: PatternLimits = DEFAULT_LIMITS):
         self.src = src
+        self.limits = limits
+        self.extent_m: dict[str, float] = {}  # panel name -> largest side of its box
 
     def fail(self, msg: str):
         raise SandboxError(f"{self.src}: {msg}")
@@ -143,6 +161,8 @@ class PatternReader:
         errors = schema_errors(data)
         if errors:  # our checks above catch the common mistakes; this is the backstop
             self.fail(f"does not match the pattern schema: {errors[0]}")
+        self.plausible_sizes(units)
+        self.plausible_seams(seams, panels)
         return Pattern(
             name=name,
             units_to_m=u,
@@ -162,13 +182,20 @@ class PatternReader:
         verts = t["vertices"]
         if not isinstance(verts, list) or len(verts) < 2:
             self.fail(f"{at}: 'vertices' must be a list of at least 2 points [x, y]")
+        most = self.limits.max_panel_vertices
+        if len(verts) > most:
+            self.fail(f"{at}: {len(verts):,} vertices, more than the limit of {most:,} "
+                      "(PatternLimits.max_panel_vertices)")  # fmt: skip
         vm = np.array([self.point(v, f"{at}: vertex {i}") for i, v in enumerate(verts)]) * u
+        self.coordinates(at, "vertex", vm, u)
         edges_t = t["edges"]
         if not isinstance(edges_t, list) or len(edges_t) < 2:
             self.fail(f"{at}: 'edges' must be a list of at least 2 edges")
+        if len(edges_t) > most:
+            self.fail(f"{at}: {len(edges_t):,} edges, more than the limit of {most:,} "
+                      "(PatternLimits.max_panel_vertices)")  # fmt: skip
         edges = [self.edge(at, k, e, vm, u) for k, e in enumerate(edges_t)]
-        names = [e.name for e in edges]
-        dup = sorted({n for n in names if names.count(n) > 1})
+        dup = sorted(n for n, c in Counter(e.name for e in edges).items() if c > 1)
         if dup:
             self.fail(f"{at}: edge name {dup[0]!r} is used by more than one edge")
         self.loop(at, edges, len(vm))
@@ -228,6 +255,7 @@ class PatternReader:
                     self.fail(f"{ea}: cubic 'controls' must be two points [[x, y], [x, y]]")
                 ctrl = np.array([self.point(q, f"{ea}: cubic control {i}") for i, q in
                                  enumerate(cs)]) * u  # fmt: skip
+            self.coordinates(ea, f"{kind} control point", ctrl, u)
         return Edge(name, a, b, kind, p0.copy(), p1.copy(), sag, ctrl)
 
     def loop(self, at: str, edges: list[Edge], nv: int):
@@ -241,7 +269,7 @@ class PatternReader:
                     f"edge loop {what} (edge k+1 must start where edge k ends)"
                 )
         starts = [e.start for e in edges]
-        seen = {s for s in starts if starts.count(s) > 1}
+        seen = {s for s, c in Counter(starts).items() if c > 1}
         if seen:
             self.fail(f"{at}: the edge loop passes vertex {min(seen)} more than once")
         unused = sorted(set(range(nv)) - set(starts))
@@ -268,25 +296,77 @@ class PatternReader:
         poly = np.vstack(pts)
         owner = np.asarray(owner)
         area = polygon_area(poly)
+        if on_one_line(poly, scale):
+            self.fail(f"{at}: the outline has zero area (its corners are on one line)")
+        try:
+            hit = first_crossing(poly, scale)
+        except OutlineTooIntricate as exc:
+            self.fail(f"{at}: {exc}")
+        if hit is not None:
+            self.fail(f"{at}: {crossing_message(p, poly, owner, hit)}")
         if abs(area) < 1e-9 * scale * scale:
             self.fail(f"{at}: the outline has zero area")
-        hit = _first_crossing(poly, scale)
-        if hit is not None:
-            i, j = hit
-            ei, ej = p.edges[owner[i]], p.edges[owner[j]]
-            if owner[i] == owner[j]:
-                self.fail(f"{at}: edge {ei.name!r} (#{owner[i]}) crosses itself: self-intersecting "
-                          "outline")  # fmt: skip
-            self.fail(
-                f"{at}: edge {ei.name!r} (#{owner[i]}) crosses edge {ej.name!r} (#{owner[j]}): "
-                "self-intersecting outline"
-            )
+        self.extent_m[p.name] = scale
         if area < 0:
             self.fail(
                 f"{at}: the outline runs clockwise; list the vertices and edges "
                 "counter-clockwise as seen from the outside of the garment (right side of the "
                 "fabric, y towards the head)"
             )
+
+    def coordinates(self, at: str, what: str, xy_m: np.ndarray, u: float):
+        far = np.abs(xy_m).max(axis=1) > self.limits.max_coordinate_m if len(xy_m) else []
+        if np.any(far):
+            i = int(np.argmax(far))
+            self.fail(
+                f"{at}: {what} {i} {[float(f'{v:.6g}') for v in xy_m[i] / u]} lies more than "
+                f"{self.limits.max_coordinate_m:g} m from the origin "
+                "(PatternLimits.max_coordinate_m): draw panels around their own origin"
+            )
+
+    def plausible_sizes(self, units: str):
+        """Refuse panels no garment has (they would exhaust memory when meshed); warn about
+        a pattern too small for a body. Both are most often a wrong ``units``."""
+        lim = self.limits
+        for name, ext in self.extent_m.items():
+            if ext > lim.max_panel_extent_m:
+                self.fail(
+                    f"panel {name!r} is {_length(ext)} across, larger than the "
+                    f"{_length(lim.max_panel_extent_m)} any garment panel needs "
+                    f"(PatternLimits.max_panel_extent_m){_units_hint(ext, units)}"
+                )
+        if not self.extent_m:
+            return
+        name, ext = max(self.extent_m.items(), key=lambda kv: kv[1])
+        if ext < lim.min_pattern_extent_m:
+            log.warning(
+                "%s: the largest panel, %r, is only %s across: small for a garment%s",
+                self.src, name, _length(ext), _units_hint(ext, units),
+            )  # fmt: skip
+            return
+        for name, ext in self.extent_m.items():
+            if ext < lim.min_panel_extent_m:
+                log.warning("%s: panel %r is only %s across (units %r)", self.src, name,
+                            _length(ext), units)  # fmt: skip
+
+    def plausible_seams(self, seams: list[SeamSpec], panels: dict[str, Panel]):
+        """Warn about seams whose sides differ by much more than ease or gathers do."""
+        lim = self.limits
+        for i, s in enumerate(seams):
+            la, lb = (sum(panels[pn].edges[k].length_m for pn, k in side)
+                      for side in (s.side_a, s.side_b))  # fmt: skip
+            diff = abs(la - lb)
+            if diff > lim.seam_mismatch_m and diff > lim.seam_mismatch_ratio * max(la, lb):
+                names = [" + ".join(f"{pn}.{panels[pn].edges[k].name}" for pn, k in side)
+                         for side in (s.side_a, s.side_b)]  # fmt: skip
+                log.warning(
+                    "%s: seam #%d%s: side a (%s) is %s long, side b (%s) %s: they differ by "
+                    "%s (more than %s and %.0f %%; ease is usually a few cm): check the "
+                    "seam's edges and the units",
+                    self.src, i, f" ({s.name!r})" if s.name else "", names[0], _length(la),
+                    names[1], _length(lb), _length(diff), _length(lim.seam_mismatch_m),
+                    100 * lim.seam_mismatch_ratio,
+                )  # fmt: skip
 
     def placement(self, at: str, t) -> dict:
         pa = f"{at}: placement"
@@ -366,46 +446,34 @@ class PatternReader:
                 used[ref] = i
 
 
-def _first_crossing(poly: np.ndarray, scale: float) -> tuple[int, int] | None:
-    """First pair of segments (i < j) of a closed polyline that touch or cross, or None.
+def crossing_message(p: Panel, poly: np.ndarray, owner: np.ndarray, hit) -> str:
+    """The message "edge 'a' (#0) crosses edge 'b' (#2) at (x, y) cm: self-intersecting
+    outline" for segments ``hit`` of the polyline ``poly`` [m] (segment k on edge owner[k])."""
+    i, j = hit
+    x, y = np.round(crossing_point(poly, i, j) / p.units_to_m, 6) + 0.0
+    unit = next((k for k, v in UNITS_TO_M.items() if v == p.units_to_m), "file units")
+    ki, kj = int(owner[i]), int(owner[j])
+    ei, ej = p.edges[ki], p.edges[kj]
+    what = "crosses itself" if ki == kj else f"crosses edge {ej.name!r} (#{kj})"
+    return f"edge {ei.name!r} (#{ki}) {what} at ({x:.4g}, {y:.4g}) {unit}: self-intersecting " \
+        "outline"  # fmt: skip
 
-    Segment i runs from poly[i] to poly[i+1]. Neighbouring segments share an end point and
-    only count when they fold back onto each other.
-    """
-    n = len(poly)
-    a, b = poly, np.roll(poly, -1, axis=0)
-    eps = 1e-10 * scale * scale
 
-    def cross(o, p, q):
-        return (p[..., 0] - o[..., 0]) * (q[..., 1] - o[..., 1]) - (p[..., 1] - o[..., 1]) * (
-            q[..., 0] - o[..., 0]
-        )
+def _length(m: float) -> str:
+    """A length [m] in the unit that reads best: '60 m', '6 cm', '3.5 mm'."""
+    if m >= 1.0:
+        return f"{m:.3g} m"
+    if m >= 0.01:
+        return f"{m * 100:.3g} cm"
+    return f"{m * 1000:.3g} mm"
 
-    i, j = np.triu_indices(n, k=1)
-    adjacent = (j == i + 1) | ((i == 0) & (j == n - 1))
-    # neighbours: fold-back (collinear, opposite directions)
-    ia, ja = i[adjacent], j[adjacent]
-    da, db = b[ia] - a[ia], b[ja] - a[ja]
-    fold = (np.abs(da[:, 0] * db[:, 1] - da[:, 1] * db[:, 0]) <= eps) & (
-        np.sum(da * db, axis=1) < 0
-    )
-    if np.any(fold):
-        k = int(np.argmax(fold))
-        return int(ia[k]), int(ja[k])
-    i, j = i[~adjacent], j[~adjacent]
-    p, q, r, s = a[i], b[i], a[j], b[j]
-    d1, d2 = cross(r, s, p), cross(r, s, q)
-    d3, d4 = cross(p, q, r), cross(p, q, s)
-    proper = (d1 * d2 < 0) & (d3 * d4 < 0)
 
-    def on_seg(o, e, x, d):  # x collinear with o-e and inside its box
-        lo, hi = np.minimum(o, e) - 1e-12 * scale, np.maximum(o, e) + 1e-12 * scale
-        inside = np.all((x >= lo) & (x <= hi), axis=1)
-        return (np.abs(d) <= eps) & inside
-
-    touch = on_seg(r, s, p, d1) | on_seg(r, s, q, d2) | on_seg(p, q, r, d3) | on_seg(p, q, s, d4)
-    bad = proper | touch
-    if np.any(bad):
-        k = int(np.argmax(bad))
-        return int(i[k]), int(j[k])
-    return None
+def _units_hint(extent_m: float, units: str) -> str:
+    """'; the file says "units": "m": are its numbers in cm?' when another unit gives the
+    panel a garment's size (15 cm to 2.5 m), else ''."""
+    scale = UNITS_TO_M[units]
+    for alt, alt_scale in UNITS_TO_M.items():
+        if alt != units and 0.15 <= extent_m / scale * alt_scale <= 2.5:
+            return (f'; the file says "units": "{units}": are its numbers in {alt} '
+                    f'("units": "{alt}")?')  # fmt: skip
+    return f' (the file says "units": "{units}")'

@@ -291,12 +291,18 @@ def rotation_matrix_xyz_deg(angles_deg) -> np.ndarray:
 # Loading
 
 
-def load_pattern(source: str | Path | dict, *, where: str | None = None) -> Pattern:
+def load_pattern(source: str | Path | dict, *, where: str | None = None, limits=None) -> Pattern:
     """Load and validate a pattern from a JSON file (path) or an already parsed dict.
 
-    ``where`` names the source in error messages (default: the path, or ``"<pattern>"``).
-    Raises SandboxError naming the file, the panel and the edge for any problem.
+    ``where`` names the source in error messages (default: the path, or ``"<pattern>"``);
+    ``limits`` a :class:`~sandbox.pattern.limits.PatternLimits` (default: the defaults).
+    Raises SandboxError naming the file, the panel and the edge for any problem; logs a
+    warning (logger ``sandbox.pattern``) for sizes and seams far from a garment's.
     """
+    from sandbox.pattern.limits import DEFAULT_LIMITS
+    from sandbox.pattern.reader import PatternReader  # it builds this module's classes
+
+    limits = DEFAULT_LIMITS if limits is None else limits
     if isinstance(source, dict):
         data = source
         src = where or "<pattern>"
@@ -306,18 +312,26 @@ def load_pattern(source: str | Path | dict, *, where: str | None = None) -> Patt
         src = where or str(path)
         default_name = path.stem.removesuffix(".pattern")
         try:
+            size = path.stat().st_size
+            if size > limits.max_file_bytes:
+                raise SandboxError(
+                    f"{src}: the file is {size:,} bytes, more than the limit of "
+                    f"{limits.max_file_bytes:,} (PatternLimits.max_file_bytes)"
+                )
             text = path.read_text(encoding="utf-8")
         except OSError as exc:
             raise SandboxError(f"{src}: cannot read the pattern file ({exc.strerror})") from None
+        except UnicodeDecodeError as exc:
+            raise SandboxError(f"{src}: not a UTF-8 text file ({exc.reason})") from None
         try:
             data = json.loads(text)
         except json.JSONDecodeError as exc:
             raise SandboxError(
                 f"{src}: not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})"
             ) from None
-    from sandbox.pattern.reader import PatternReader  # it builds this module's classes
-
-    return PatternReader(src).pattern(data, default_name)
+        except (ValueError, RecursionError) as exc:  # a 5000-digit number, deep nesting
+            raise SandboxError(f"{src}: cannot read the JSON ({exc})") from None
+    return PatternReader(src, limits).pattern(data, default_name)
 
 
 def save_pattern(pattern: Pattern | dict, path: str | Path) -> Path:
