@@ -18,6 +18,7 @@ from sandbox import preflight
 from sandbox.errors import SandboxError
 from sandbox.garment.config import DRAPE_METHODS
 from sandbox.precision import add_precision_flags
+from sandbox.scene.budget import add_limit_flags, limits_from_args, show_sizes
 from sandbox.scene.spec import INTEGRATORS
 
 log = logging.getLogger("sandbox")
@@ -69,6 +70,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", type=Path, required=True, help="output directory (created)")
     p.add_argument("--no-render", action="store_true", help="skip the PNG")
     _add_runtime_flags(p)
+    add_limit_flags(p)
 
     p = sub.add_parser("demo", help=f"drape the default garment ({DEFAULT_GARMENT}) on the "
                        "default mannequin (size 12)",
@@ -84,6 +86,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scene", action="store_true", help="run the hanging-sheet scene instead")
     p.add_argument("--no-render", action="store_true", help="skip the PNG")
     _add_runtime_flags(p)
+    add_limit_flags(p)
 
     p = sub.add_parser(
         "validate",
@@ -209,6 +212,7 @@ def _add_drape_parsers(sub) -> None:
     p.add_argument("--no-meshes", action="store_true",
                    help="no garment.obj/.ply or body.obj: renders and metrics only")  # fmt: skip
     _add_runtime_flags(p)
+    add_limit_flags(p)
 
     p = sub.add_parser(
         "gallery",
@@ -295,6 +299,7 @@ def cmd_drape(args) -> int:
     if args.out is None:
         raise SandboxError("drape: --out DIR is required")
     config = drape_config_from_args(args, load_drape_config(args.config) if args.config else None)
+    config = dataclasses.replace(config, limits=limits_from_args(args, config.limits))
     if args.edge_cm is None:  # implicit drapes converge only on coarser meshes
         args.edge_cm = default_edge_m(config.integrator) * 100.0
     if not args.edge_cm > 0:
@@ -376,7 +381,8 @@ def cmd_run(scene_path: Path, args) -> int:
 
     preflight.check_output_dir(args.out, "--out", names=preflight.RUN_OUTPUTS)
     spec = load_scene(scene_path)  # every input check happens before Taichi starts
-    scene = build_scene(spec, start_runtime=lambda: runtime.init(args.arch, float64=args.float64))
+    scene = build_scene(spec, start_runtime=lambda: runtime.init(args.arch, float64=args.float64),
+                        limits=limits_from_args(args, spec.limits))  # fmt: skip
     if not args.quiet:
         print(f"{spec.name}: {scene.model.particle_count} vertices, {scene.model.tri_count} "
               f"triangles, {scene.model.hinge_count} hinges; dt = {scene.dt_s:.3g} s "
@@ -408,6 +414,9 @@ def main(argv: list[str] | None = None) -> int:
         if args.command is None:
             parser.print_help()
             return 2
+    # every scene that starts says its size, predicted and built (sandbox.scene.budget)
+    show_sizes(argv[0] == "gui" if forwarded else
+               args.command in ("run", "demo", "drape") and not args.quiet)  # fmt: skip
     try:
         if forwarded:
             return _forward(FORWARDED[argv[0]], argv[0], argv[1:])
@@ -424,6 +433,9 @@ def main(argv: list[str] | None = None) -> int:
             ]  # fmt: skip
             drape += ["--no-render"] * args.no_render + ["--float32"] * (not args.float64)
             drape += ["--quiet"] * args.quiet
+            for flag, value in (("--max-vertices", args.max_vertices),
+                                ("--max-memory-gb", args.max_memory_gb)):  # fmt: skip
+                drape += [flag, str(value)] * (value is not None)
             return cmd_drape(parser.parse_args(drape))
         if args.command == "validate":
             preflight.check_validate(args)

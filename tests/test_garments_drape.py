@@ -47,6 +47,7 @@ def test_library_garment_meets_the_acceptance_on_a_coarse_mesh(name, mannequin, 
     assert m["seam_count"] > 0 and m["seam_gap_max_m"] <= 2e-3
     assert m["vertices_inside_body"] == 0 and m["penetration_max_m"] <= 1e-3
     assert m["intersecting_triangle_pairs"] == 0
+    assert m["body_through_cloth_max_m"] <= 1e-3, m["body_through_cloth_vertices"]
     assert m["hangs_from"] == hangs_from and not m["slid_off"], m["top_below_anchor_m"]
     assert not m["rolled_up"], m["folded_area_pct"]
     shoulders = hangs_from == "shoulder_point_left"  # tops and dresses sew with some gravity

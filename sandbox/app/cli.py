@@ -8,6 +8,7 @@ from pathlib import Path
 
 from sandbox.errors import SandboxError
 from sandbox.precision import add_precision_flags
+from sandbox.scene.budget import add_limit_flags, limits_from_args
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -49,6 +50,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--status", type=Path, default=None, help=argparse.SUPPRESS)
     p.add_argument("--arch", default="cpu", help="Taichi arch (default cpu)")
     add_precision_flags(p)
+    add_limit_flags(p)
     return p
 
 
@@ -58,6 +60,7 @@ def main(argv: list[str] | None = None) -> int:
         from sandbox.preflight import check_gui
 
         actions = check_gui(args)  # every flag and the script, before Taichi starts
+        limits = limits_from_args(args)
         from sandbox import runtime
         from sandbox.app.session import Session
 
@@ -67,7 +70,7 @@ def main(argv: list[str] | None = None) -> int:
         )
         session = Session(args.garment, size=args.size, edge_cm=args.edge_cm,
                           fabric=args.fabric, sewn=args.sewn,
-                          self_collision=args.self_collision)  # fmt: skip
+                          self_collision=args.self_collision, limits=limits)  # fmt: skip
         if args.offscreen:
             from sandbox.app.script import run_script
 

@@ -58,14 +58,18 @@ class Session:
         garment: library name (``python -m sandbox drape --list``) or pattern file.
         size: database size of the starting mannequin. edge_cm: mesh edge [cm].
         fabric: fabric preset (default: the garment's own). sewn: start with the
-        pattern's seams sewn. self_collision: cloth against itself (slower).
+        pattern's seams sewn. self_collision: cloth against itself (slower). limits: the
+        largest scene accepted (:class:`~sandbox.scene.budget.ResourceLimits`).
     """
 
     def __init__(self, garment: str = "sheath-dress", *, size: int = 12, edge_cm: float = 3.0,
                  fabric: str | None = None, sewn: bool = False,
-                 self_collision: bool = False):  # fmt: skip
+                 self_collision: bool = False, limits=None):  # fmt: skip
         from sandbox import runtime
         from sandbox.garment import DrapeConfig, build_drape, make_mannequin, resolve_pattern
+        from sandbox.garment.build import check_drape_size
+        from sandbox.garment.inputs import material_for
+        from sandbox.scene.budget import ResourceLimits, mesher_limits
 
         runtime.ensure_init()
         if not (edge_cm > 0 and math.isfinite(edge_cm)):
@@ -76,14 +80,18 @@ class Session:
         self.mannequin = make_mannequin(size)
         self.pattern = resolve_pattern(garment, self.mannequin)
         self.fabric = fabric
+        config = DrapeConfig(self_collision=self_collision, limits=limits or ResourceLimits())
+        check_drape_size(self.pattern, edge_cm / 100.0, material_for(self.pattern, fabric),
+                         config, say=False)  # fmt: skip
         meshes_boundary = 0
         from sandbox.pattern.panel_mesh import mesh_pattern
 
-        for mesh in mesh_pattern(self.pattern, edge_cm / 100.0).values():
+        for mesh in mesh_pattern(self.pattern, edge_cm / 100.0,
+                                 limits=mesher_limits(config.limits)).values():  # fmt: skip
             meshes_boundary += len(mesh.boundary)
         self.scene = build_drape(self.pattern, self.mannequin, fabric=fabric,
                                  edge_length_m=edge_cm / 100.0,
-                                 config=DrapeConfig(self_collision=self_collision),
+                                 config=config,
                                  sew_pattern=False,
                                  seam_capacity=2 * meshes_boundary + 16)  # fmt: skip
         self.model = self.scene.model

@@ -103,6 +103,11 @@ class BodyCollider:
         self.mu_s = ti.field(float, shape=())
         self.mu_k = ti.field(float, shape=())
         self.thickness[None] = thickness_m
+        # the thickness added over convex creases for the cloth that drapes (follow_cloth)
+        self.vert_extra = ti.field(float, shape=len(v))  # per body vertex [m]
+        self.tri_extra = ti.field(float, shape=len(t))  # the largest of a face's corners
+        self.extra_max = ti.field(float, shape=())
+        self.cloth_edge_m = 0.0
         self.mu_s[None] = friction_static
         self.mu_k[None] = friction_kinetic
         # grid: cell size near the mean edge length, dims fixed from the first bounds
@@ -116,7 +121,7 @@ class BodyCollider:
         self.cell_size = ti.field(float, shape=())
         self.cell_start = ti.field(ti.i32, shape=n_cells + 1)
         self.cell_fill = ti.field(ti.i32, shape=n_cells)
-        self.entry_capacity = int(len(t) * 40 + 4096)
+        self.entry_capacity = int(len(t) * 80 + 4096)
         self.cell_entries = ti.field(ti.i32, shape=self.entry_capacity)
         self.overflow = ti.field(ti.i32, shape=())
         self.bin_pad = ti.field(float, shape=())  # the triangles' box growth at the build [m]
@@ -137,6 +142,8 @@ class BodyCollider:
         from sandbox import runtime
 
         self.body_x.from_numpy(v.astype(runtime.float_dtype()))
+        if self.cloth_edge_m > 0.0:
+            self._write_extra(v)
         lo, hi = v.min(axis=0), v.max(axis=0)
         ratio = float(np.ptp(v, axis=0).max()) / max(self.extent_init, 1e-12)
         size = max(self.cell_size_init * ratio, float(((hi - lo) / np.array(self.dims)).max()))
@@ -147,6 +154,37 @@ class BodyCollider:
         self._build()
         if self.overflow[None]:
             raise SandboxError(f"collider {self.name!r}: grid entry capacity exceeded")
+
+    def follow_cloth(self, cloth_edge_m: float) -> None:
+        """Thicken the contact over the body's convex creases for a cloth of mean edge
+        ``cloth_edge_m`` [m], so its straight edges pass over them
+        (:func:`sandbox.collision.crease.crease_thickness`); kept through :meth:`update`."""
+        self.cloth_edge_m = float(cloth_edge_m)
+        self.update(self.body_x.to_numpy().astype(np.float64))
+
+    def _write_extra(self, v: np.ndarray) -> None:
+        from sandbox.collision.crease import crease_thickness
+
+        extra = crease_thickness(v, self.triangles_np, self.cloth_edge_m, self.thickness[None])
+        self.vert_extra.from_numpy(extra)
+        self.tri_extra.from_numpy(extra[self.triangles_np].max(axis=1))
+        self.extra_max[None] = float(extra.max())
+
+    @ti.func
+    def _extra_at(self, t, q):
+        """The crease thickness [m] at point q of face t, interpolated from its corners."""
+        out = 0.0
+        if self.tri_extra[t] > 0.0:
+            tv = self.tri[t]
+            w = _barycentric(q, self.body_x[tv[0]], self.body_x[tv[1]], self.body_x[tv[2]])
+            w = ti.max(w, 0.0)
+            if w.sum() > 0.0:  # False for NaN: a degenerate face takes its largest
+                w = w / w.sum()
+                out = (w[0] * self.vert_extra[tv[0]] + w[1] * self.vert_extra[tv[1]]
+                       + w[2] * self.vert_extra[tv[2]])  # fmt: skip
+            else:
+                out = self.tri_extra[t]
+        return out
 
     @ti.func
     def _cell_of(self, p):
@@ -175,14 +213,16 @@ class BodyCollider:
             self.cell_fill[c] = 0
         pad = BIN_PAD_THICKNESSES * self.thickness[None]
         self.bin_pad[None] = pad
+        # a face with a crease thickness is binned that much wider, so one cell still holds
+        # every face within its own thickness of a point in it
         for t in self.tri:
             a, b, c = (
                 self.body_x[self.tri[t][0]],
                 self.body_x[self.tri[t][1]],
                 self.body_x[self.tri[t][2]],
             )
-            lo = self._cell_of(ti.min(a, b, c) - pad)
-            hi = self._cell_of(ti.max(a, b, c) + pad)
+            lo = self._cell_of(ti.min(a, b, c) - pad - self.tri_extra[t])
+            hi = self._cell_of(ti.max(a, b, c) + pad + self.tri_extra[t])
             for i in range(lo[0], hi[0] + 1):
                 for j in range(lo[1], hi[1] + 1):
                     for k in range(lo[2], hi[2] + 1):
@@ -199,8 +239,8 @@ class BodyCollider:
                 self.body_x[self.tri[t][1]],
                 self.body_x[self.tri[t][2]],
             )
-            lo = self._cell_of(ti.min(a, b, c) - pad)
-            hi = self._cell_of(ti.max(a, b, c) + pad)
+            lo = self._cell_of(ti.min(a, b, c) - pad - self.tri_extra[t])
+            hi = self._cell_of(ti.max(a, b, c) + pad + self.tri_extra[t])
             for i in range(lo[0], hi[0] + 1):
                 for j in range(lo[1], hi[1] + 1):
                     for k in range(lo[2], hi[2] + 1):
@@ -336,17 +376,22 @@ class BodyCollider:
         o1 = 0.0
         n2 = n1
         o2 = o1
+        e1 = 0.0  # the faces' crease thickness (follow_cloth)
+        e2 = 0.0
         found, t1 = self._nearest_face(x, reach, n1, x, False)
         if found:
             count = 1
             n1, o1 = self._face_plane(t1, x)
             n2, o2 = n1, o1
+            e1 = self._extra_at(t1, self._closest_on(t1, x))
+            e2 = e1
             found2, t2 = self._nearest_face(x, reach, n1, self._closest_on(t1, x), True)
             if found2:
                 count = 2
                 n2, o2 = self._face_plane(t2, x)
+                e2 = self._extra_at(t2, self._closest_on(t2, x))
         h = self.thickness[None]
-        return count, n1, o1 + h, n2, o2 + h
+        return count, n1, o1 + h + e1, n2, o2 + h + e2
 
     @ti.func
     def _nearest_face(self, x, reach, n1, q1, crease: ti.template()):
@@ -421,17 +466,19 @@ class BodyCollider:
         less the outward push that restored the thickness. Its normal speed is at most
         the vertex's own outward speed before contact (inelastic contact). Keeping the
         push, (h − φ)/dt, would launch a vertex that starts 2 mm inside the layer at
-        dt = 31 µs outward at 64 m/s, and keep it jittering against the body.
+        dt = 31 µs outward at 64 m/s, and keep it jittering against the body. Over a convex
+        crease the thickness grows by the face's ``tri_extra`` (:meth:`follow_cloth`).
         """
         h = self.thickness[None]
+        hx = h + self.extra_max[None]  # the largest thickness of any face
         x1 = x + dt * v
         # the cell of x1 alone when the binning pad covers both h and the step
         # (BIN_PAD_THICKNESSES), else every cell of the step's box grown by h
         lo = self._cell_of(x1)
         hi = lo
         if ti.max(h, (x1 - x).norm()) > self.bin_pad[None]:
-            lo = self._cell_of(ti.min(x, x1) - h)
-            hi = self._cell_of(ti.max(x, x1) + h)
+            lo = self._cell_of(ti.min(x, x1) - hx)
+            hi = self._cell_of(ti.max(x, x1) + hx)
         # 1. continuous: earliest crossing of the segment through a triangle
         best_t = 2.0
         best_n = ti.Vector([0.0, 0.0, 0.0])
@@ -440,6 +487,7 @@ class BodyCollider:
         best_q = ti.Vector([0.0, 0.0, 0.0])
         best_pn = ti.Vector([0.0, 0.0, 0.0])
         best_side = -1e30  # (x1 - q) . n of the closest triangle: > 0 in front of its plane
+        best_tri = -1  # the closest triangle
         # a step whose box has more cells than a query may visit tests every triangle
         # instead (a 10 m/s impact at 1/60 s): visiting only the box's first cells, lowest x
         # first, would miss crossings on its far side
@@ -463,7 +511,7 @@ class BodyCollider:
                 s1 = n.dot(x1) - self.tri_offset[t]
                 # a crossing needs the two ends on opposite sides of the plane, and
                 # proximity needs the predicted position within h of the plane
-                if s0 * s1 <= 0.0 or ti.abs(s1) <= h:
+                if s0 * s1 <= 0.0 or ti.abs(s1) <= hx:
                     a = self.body_x[self.tri[t][0]]
                     b = self.body_x[self.tri[t][1]]
                     c = self.body_x[self.tri[t][2]]
@@ -475,7 +523,7 @@ class BodyCollider:
                             if ti.static(not self.closed):
                                 if s0 < 0.0:
                                     best_n = -n
-                    reach = self.tri_radius[t] + h
+                    reach = self.tri_radius[t] + hx
                     near = (x1 - self.tri_centre[t]).norm_sqr() <= reach * reach
                     if near or s0 * s1 <= 0.0:
                         q = closest_point_on_triangle(x1, a, b, c)
@@ -488,6 +536,7 @@ class BodyCollider:
                             best_q = q
                             best_pn = n
                             best_side = side
+                            best_tri = t
             cell = self._next_cell(cell, lo, hi)
         v_new = v
         cn = ti.Vector([0.0, 0.0, 0.0])  # the contact normal, where there is contact
@@ -505,7 +554,10 @@ class BodyCollider:
             best_pn = best_n
             best_d = h * 0.0
             cn = best_n
-        if best_d < h:
+        best_h = h  # the closest triangle's thickness at the closest point
+        if best_tri >= 0 and self.extra_max[None] > 0.0:
+            best_h = h + self._extra_at(best_tri, best_q)
+        if best_d < best_h:
             # side: the face normal, flipped to the side the vertex came from
             n = best_pn
             if ti.static(not self.closed):
@@ -519,8 +571,8 @@ class BodyCollider:
                 # rim is 0 from the side face's plane and was pushed sideways by h a step)
                 n = (x1 - best_q) / best_d
                 phi = best_d
-            if phi < h:
-                dvn = (h - phi) / dt  # normal velocity change that restores the thickness
+            if phi < best_h:
+                dvn = (best_h - phi) / dt  # normal velocity change that restores the thickness
                 vn = v_new.dot(n)
                 vt = v_new - vn * n
                 vt_len = vt.norm()

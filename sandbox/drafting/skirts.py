@@ -87,7 +87,9 @@ def circle_skirt(p: dict, b: BodyDims, rules: DraftRules = DEFAULT_RULES) -> Dra
     its centre. ``fullness`` is the fraction of a full circle the four gores make (1: a full
     circle, 0.5: a half circle, the default 1); waist radius = (waist + ease) / (2 pi
     fullness), so each gore is a sector of fullness x 90 degrees. No rule of ``rules``
-    shapes it (no hip curve, no bodice); it takes them as every block does."""
+    shapes it (no hip curve, no bodice); it takes them as every block does. Each gore's
+    ``meta["circle"]`` (the circle's centre and waist radius in cm, the fullness, the side)
+    lets the drape start it on a cone with folds (:mod:`sandbox.garment.circle_start`)."""
     e_w = float(p["ease_cm"]["waist"])
     full = float(p.get("fullness", 1.0))
     if not 0.1 <= full <= 1.0:
@@ -119,7 +121,9 @@ def circle_skirt(p: dict, b: BodyDims, rules: DraftRules = DEFAULT_RULES) -> Dra
         ]
         panels[g] = panel_dict(
             es, placement=torso_placement(side, (0, 0), landmark, c),
-            meta={"girth_edges": {"waist": ["waist"]}},
+            meta={"girth_edges": {"waist": ["waist"]},
+                  "circle": {"centre": [0.0, round(r, 4)], "waist_radius": round(r, 4),
+                             "fullness": full, "side": side}},
         )  # fmt: skip
     seams = []
     for a, bb in (("front", "left"), ("left", "back"), ("back", "right"), ("right", "front")):

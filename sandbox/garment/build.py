@@ -61,6 +61,7 @@ def build_drape(
     seam_capacity: int = 0,
     place=None,
     like=None,
+    contact_edge_m: float | None = None,
 ):
     """Mesh, place and sew a pattern on the mannequin: a Scene for ``run_scene``.
 
@@ -77,15 +78,20 @@ def build_drape(
             the panels on the body (a coarse drape's placement carried to this mesh).
         like: a scene built by this function on the same mannequin, whose body collider
             and placement body this one shares instead of making its own.
+        contact_edge_m: the cloth edge [m] the body's crease thickness is sized for
+            (:meth:`~sandbox.collision.body.BodyCollider.follow_cloth`); default the mesh's
+            own. A coarse level sized for the fine mesh rests on the same body surface.
     Returns the Scene, with ``scene.garment`` its :class:`GarmentContext`.
     """
     # Taichi-backed modules load when a scene is built, not when the package is imported:
     # `drape --list` and the input checks run before Taichi starts
     from sandbox import runtime
     from sandbox.collision.body import BodyCollider
+    from sandbox.garment.circle_start import circle_gores, place_circle_skirt
     from sandbox.pattern.panel_mesh import mesh_pattern, pattern_seam_sides
     from sandbox.pattern.placement.body import PlacementBody
     from sandbox.pattern.placement.place import place_pattern
+    from sandbox.scene.budget import log_built, mesher_limits
     from sandbox.scene.build import build_self_collider, scene_from_model
     from sandbox.scene.spec import CollisionSpec, SceneSpec, SimulationSpec, StopSpec
     from sandbox.sim.builder import ModelBuilder
@@ -95,9 +101,15 @@ def build_drape(
     if edge_length_m is not None and not (edge_length_m > 0 and math.isfinite(edge_length_m)):
         raise SandboxError(f"edge length must be a positive number of metres, got {edge_length_m}")
     material = material_for(pattern, fabric)
-    meshes = mesh_pattern(pattern, edge_length_m)
+    size = check_drape_size(pattern, edge_length_m, material, config)
+    meshes = mesh_pattern(pattern, edge_length_m, limits=mesher_limits(config.limits))
     body = like.garment.placement_body if like is not None else PlacementBody(mannequin)
-    placed = place(meshes) if place is not None else place_pattern(pattern, meshes, body)
+    if place is not None:
+        placed = place(meshes)
+    elif circle_gores(pattern):  # a circle skirt starts on a cone with folds
+        placed = place_circle_skirt(pattern, meshes, body)
+    else:
+        placed = place_pattern(pattern, meshes, body)
     runtime.ensure_init()
     builder = ModelBuilder()
     index = {}
@@ -136,7 +148,8 @@ def build_drape(
                       min_time_s=config.min_time_s, time_limit_s=config.time_limit_s,
                       wall_limit_s=config.wall_limit_s),
         collision=CollisionSpec(thickness_m=config.thickness_m,
-                                self_collision=config.self_collision),
+                                self_collision=config.self_collision,
+                                body_faces=config.body_faces),
         source=pattern.source,
     )  # fmt: skip
     if like is not None:
@@ -146,10 +159,14 @@ def build_drape(
             BodyCollider(mannequin.vertices, mannequin.triangles, thickness_m=config.thickness_m,
                          friction_static=spec.collision.friction_static,
                          friction_kinetic=spec.collision.friction_kinetic, name="mannequin",
-                         closed=True)
+                         closed=True, face_pass=config.body_faces)
         ]  # fmt: skip
+    for c in model.colliders:  # the shoulder line and a coarse bust: see crease.py
+        if c.cloth_edge_m != (contact_edge_m or edge):
+            c.follow_cloth(contact_edge_m or edge)
     model.self_collider = build_self_collider(model, spec)
     scene = scene_from_model(spec, model)
+    log_built(scene, size.name)
     warning = implicit_mesh_warning(config.integrator, edge)
     if warning:
         log.warning("%s: %s", pattern.name, warning)
@@ -160,6 +177,18 @@ def build_drape(
         seam_stiffness_N_m=k_cloth, edge_length_m=edge, integrator_warning=warning,
     )  # fmt: skip
     return scene
+
+
+def check_drape_size(pattern, edge_length_m: float | None, material, config: DrapeConfig,
+                     *, say: bool = True):  # fmt: skip
+    """The predicted size of a drape (:func:`sandbox.scene.budget.pattern_size`), refused
+    (SandboxError) over ``config.limits`` before anything is meshed; logged if ``say``."""
+    from sandbox.scene.budget import check_size, pattern_size
+
+    h = pattern.mesh_edge_m if edge_length_m is None else float(edge_length_m)
+    size = pattern_size(pattern, h, material, config)
+    check_size(size, config.limits, where=f"{pattern.source} at {h * 100:g} cm edges", say=say)
+    return size
 
 
 def _seam_parts(seam: dict, seam_k: float, names, meshes, placed) -> list[dict]:

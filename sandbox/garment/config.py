@@ -13,6 +13,7 @@ import math
 from dataclasses import dataclass, field, fields
 
 from sandbox.errors import SandboxError
+from sandbox.scene.budget import ResourceLimits
 from sandbox.scene.spec import INTEGRATORS
 
 
@@ -122,6 +123,9 @@ class AcceptanceConfig:
     """Largest distance between a seam's two sides [m]."""
     penetration_m: float = 1e-3
     """Deepest cloth vertex inside the body [m]."""
+    body_through_m: float = 1e-3
+    """Deepest body vertex showing through the cloth where it covers the body [m]
+    (``body_through_cloth_max_m``, docs/collision_metrics.md)."""
     slide_tolerance_m: float = 0.03
     """A garment has slid off when its top ends more than this [m] below the landmark it
     hangs from."""
@@ -131,6 +135,7 @@ class AcceptanceConfig:
     def __post_init__(self):
         _check_positive("AcceptanceConfig", seam_gap_m=self.seam_gap_m,
                         penetration_m=self.penetration_m,
+                        body_through_m=self.body_through_m,
                         slide_tolerance_m=self.slide_tolerance_m,
                         fold_tolerance_pct=self.fold_tolerance_pct)  # fmt: skip
 
@@ -202,6 +207,10 @@ class DrapeConfig:
     """Contact thickness against the body and the cloth itself [m]."""
     self_collision: bool = True
     """Cloth-cloth contact (Bridson et al. 2002) while the garment drapes."""
+    body_faces: bool = False
+    """The face pass: the body's vertices are also kept the thickness under the cloth's
+    triangles, so the body cannot show through a triangle spanning a convex part of it
+    (docs/self_collision.md)."""
     frame_rate_hz: float = 30.0
     """Frames per second: the stop rule is checked once a frame."""
     stop_max_m: float = 1.5e-3
@@ -222,6 +231,8 @@ class DrapeConfig:
     sewing: SewingConfig = field(default_factory=SewingConfig)
     repair: RepairConfig = field(default_factory=RepairConfig)
     acceptance: AcceptanceConfig = field(default_factory=AcceptanceConfig)
+    limits: ResourceLimits = field(default_factory=ResourceLimits)
+    """The largest drape a build accepts (vertices, memory; :mod:`sandbox.scene.budget`)."""
 
     def __post_init__(self):
         if self.method not in DRAPE_METHODS:
@@ -291,7 +302,8 @@ def implicit_mesh_warning(integrator: str, edge_length_m: float | None) -> str |
             f"or --edge-cm {IMPLICIT_GARMENT_EDGE_M * 100:g} with implicit_euler.")  # fmt: skip
 
 
-_SECTIONS = {"sewing": SewingConfig, "repair": RepairConfig, "acceptance": AcceptanceConfig}
+_SECTIONS = {"sewing": SewingConfig, "repair": RepairConfig, "acceptance": AcceptanceConfig,
+             "limits": ResourceLimits}  # fmt: skip
 
 
 def _from_table(cls, table, where: str, base=None):

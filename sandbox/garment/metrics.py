@@ -3,8 +3,8 @@
 metrics.json of a drape: the run's own metrics (:func:`~sandbox.scene.run.run_scene`: stop
 rule, seam gap, contact), the garment and the body it was draped on, the ease at bust,
 waist and hip (:func:`ease_cm`), whether it hangs where it should (:func:`hang_metrics`),
-how much of it turned over (:func:`fold_metrics`) and the verdict
-(:func:`meets_acceptance`).
+how much of it turned over (:func:`fold_metrics`), the folds around a free hem
+(:func:`hem_nodes`) and the verdict (:func:`meets_acceptance`).
 """
 
 from __future__ import annotations
@@ -46,6 +46,7 @@ def drape_metrics(scene, result, *, build_s: float = 0.0) -> dict:
     m.update(hang_metrics(model.initial_positions_np, result.positions, mannequin, acceptance))
     m.update(fold_metrics(model.initial_positions_np, result.positions, model.tri_indices_np,
                           g.placement_body, acceptance))  # fmt: skip
+    m["hem_nodes"] = hem_nodes(g, model, result.positions)
     m["meets_acceptance"] = meets_acceptance(m, acceptance)
     return m
 
@@ -169,19 +170,70 @@ def fold_metrics(x_start: np.ndarray, x_end: np.ndarray, triangles: np.ndarray,
             "rolled_up": bool(not finite or pct > tolerance)}  # fmt: skip
 
 
+def hem_ring(pattern, meshes: dict, piece_start: dict) -> np.ndarray | None:
+    """Particle indices of a garment's free hem around the torso, or None without one.
+
+    The hem is every edge called ``hem`` of a panel placed on the torso (sleeve hems are
+    left out) that no seam sews. ``meshes``: panel name -> PanelMesh; ``piece_start``:
+    panel name -> index of its first particle.
+    """
+    sewn = {(name, k) for s in pattern.seams for name, k in (*s.side_a, *s.side_b)}
+    out = []
+    for name, panel in pattern.panels.items():
+        if (panel.placement or {}).get("body", "torso") != "torso" or name not in meshes:
+            continue
+        for k, e in enumerate(panel.edges):
+            if e.name == "hem" and (name, k) not in sewn:
+                out.append(piece_start[name] + meshes[name].edge_vertices[k])
+    return np.unique(np.concatenate(out)) if out else None
+
+
+def hem_nodes(garment, model, x_end: np.ndarray, max_gap_deg: float = 45.0) -> int | None:
+    """Nodes (folds) around a garment's free hem, counted as the Cusick test counts them.
+
+    The hem (:func:`hem_ring`) is seen from the body's axis (the torso's, at the hip):
+    each hem vertex's angle about it where it started (the model's initial positions:
+    placed, or carried from a coarse level; single-valued where a fold turns over) against
+    its final radial distance [m], and
+    :func:`~sandbox.validate.cusick_measure.count_nodes` counts the maxima of that profile
+    (3° Gaussian, prominence ≥ 5 mm). None when the garment has no hem on the torso or its
+    hem does not go around the body (an angular gap over ``max_gap_deg``).
+    """
+    from sandbox.validate.cusick_measure import count_nodes
+
+    start = {name: model.pieces[i].particle_start for name, i in garment.piece_index.items()}
+    ring = hem_ring(garment.pattern, garment.meshes, start)
+    x_end = np.asarray(x_end, float)
+    if ring is None or len(ring) < 8 or not np.all(np.isfinite(x_end[ring])):
+        return None
+    body = garment.placement_body
+    lm = body.landmarks.get("hip_front", body.landmarks.get("waist_front"))
+    axis = body.frame("torso", None if lm is None else float(lm[1])).origin[[0, 2]]
+    d0 = np.asarray(model.initial_positions_np, float)[ring][:, [0, 2]] - axis
+    theta = np.mod(np.arctan2(d0[:, 0], d0[:, 1]), 2.0 * np.pi)  # from the front (+Z)
+    gaps = np.diff(np.sort(theta), append=np.sort(theta)[0] + 2.0 * np.pi)
+    if gaps.max() > np.radians(max_gap_deg):
+        return None
+    r = np.linalg.norm(x_end[ring][:, [0, 2]] - axis, axis=1)
+    return count_nodes(theta, r)
+
+
 def meets_acceptance(m: dict, acceptance: AcceptanceConfig | None = None) -> bool:
     """The acceptance for one drape's metrics: converged by the stop rule, largest seam gap
-    and deepest vertex inside the body within :class:`AcceptanceConfig`'s limits, no
-    intersecting cloth triangle pairs, not slid off (:func:`hang_metrics`), not rolled up
-    (:func:`fold_metrics`), no NaN."""
+    and deepest vertex inside the body within :class:`AcceptanceConfig`'s limits, the body
+    showing through the cloth by no more than its limit, no intersecting cloth triangle
+    pairs, not slid off (:func:`hang_metrics`), not rolled up (:func:`fold_metrics`), no
+    NaN."""
     a = acceptance or AcceptanceConfig()
     gap = m.get("seam_gap_max_m")
     depth = m.get("penetration_max_m")
+    through = m.get("body_through_cloth_max_m")
     return bool(
         m.get("converged")
         and (gap is None or gap <= a.seam_gap_m)
         and depth is not None
         and depth <= a.penetration_m
+        and (through is None or through <= a.body_through_m)
         and m.get("intersecting_triangle_pairs") == 0
         and not m.get("slid_off", False)
         and not m.get("rolled_up", False)

@@ -122,8 +122,9 @@ def drape_coarse_to_fine(pattern, mannequin, *, fabric=None, edge_length_m: floa
         else config.coarse_damping_per_s,
         sewing=dataclasses.replace(config.sewing, self_collision=config.coarse_self_collision),
     )
+    fine_edge = pattern.mesh_edge_m if edge_length_m is None else float(edge_length_m)
     coarse = build_drape(pattern, mannequin, fabric=fabric, edge_length_m=config.coarse_edge_m,
-                         config=coarse_config)  # fmt: skip
+                         config=coarse_config, contact_edge_m=fine_edge)  # fmt: skip
     coarse_build_s = time.perf_counter() - t0
     coarse_result = run_drape(coarse, progress=progress)
     cm = coarse_result.metrics

@@ -14,9 +14,9 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
-from sandbox.garment.build import build_drape
+from sandbox.garment.build import build_drape, check_drape_size
 from sandbox.garment.config import DrapeConfig
-from sandbox.garment.inputs import make_mannequin, resolve_pattern
+from sandbox.garment.inputs import make_mannequin, material_for, resolve_pattern
 from sandbox.garment.metrics import drape_metrics
 from sandbox.garment.multilevel import drape_coarse_to_fine
 from sandbox.garment.output import write_drape
@@ -62,6 +62,8 @@ def drape(
         mannequin = make_mannequin(size, measurements)
     pattern = resolve_pattern(garment_or_path, mannequin)
     config = config or DrapeConfig()
+    # refused before the coarse level runs (build_drape checks each level again)
+    check_drape_size(pattern, edge_length_m, material_for(pattern, fabric), config, say=False)
     scene = fallback = None
     if config.method == "coarse_to_fine" and _finer(edge_length_m, pattern, config):
         scene, result, build_s = drape_coarse_to_fine(

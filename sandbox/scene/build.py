@@ -17,6 +17,13 @@ from sandbox import runtime
 from sandbox.collision.self_contact_config import SelfContactConfig
 from sandbox.errors import SandboxError
 from sandbox.pattern.mesh2d import mesh_grid, mesh_polygon
+from sandbox.scene.budget import (
+    ResourceLimits,
+    check_size,
+    log_built,
+    mesher_limits,
+    scene_size,
+)
 from sandbox.scene.spec import ClothSpec, PinSpec, SceneSpec
 from sandbox.sim.builder import ModelBuilder
 from sandbox.sim.implicit_config import ImplicitConfig
@@ -51,15 +58,15 @@ class Scene:
     None for a scene file's scene."""
 
 
-def mesh_cloth(c: ClothSpec) -> tuple[np.ndarray, np.ndarray]:
-    """Pattern-plane mesh of one piece: points (n, 2) [m] and triangles (m, 3)."""
+def mesh_cloth(c: ClothSpec, limits=None) -> tuple[np.ndarray, np.ndarray]:
+    """Pattern-plane mesh of one piece: points (n, 2) [m] and triangles (m, 3); ``limits``:
+    the mesher's :class:`~sandbox.pattern.limits.PatternLimits` (default: its defaults)."""
     if c.mesher == "grid":
         (x0, y0), _, (x1, y1), _ = c.outline_m
         pts, tris = mesh_grid(x1 - x0, y1 - y0, c.edge_length_m)
         return pts + np.array([x0, y0]), tris
-    return mesh_polygon(
-        np.array(c.outline_m), c.edge_length_m, where=c.where, inner_segments=c.mesh_lines_m
-    )
+    return mesh_polygon(np.array(c.outline_m), c.edge_length_m, where=c.where,
+                        inner_segments=c.mesh_lines_m, limits=limits)  # fmt: skip
 
 
 def resolve_pins(c: ClothSpec, uv: np.ndarray) -> np.ndarray:
@@ -210,21 +217,25 @@ def build_self_collider(model: Model, spec: SceneSpec,
 
 def build_scene(spec: SceneSpec, *, implicit: ImplicitConfig | None = None,
                 self_contact: SelfContactConfig | None = None,
-                start_runtime=None) -> Scene:  # fmt: skip
+                start_runtime=None, limits: ResourceLimits | None = None) -> Scene:  # fmt: skip
     """Mesh, check and allocate a scene. Initialises Taichi on the CPU if nobody did.
 
     ``implicit`` and ``self_contact`` set the implicit solver's and the self-collision's
     tunables (default: their dataclasses' defaults); the scene's ``[simulation]
     linear_solver`` overrides ``implicit.linear_solver``. ``start_runtime``: called instead
     of :func:`sandbox.runtime.ensure_init` once the meshes and pins are checked (the CLI
-    starts Taichi there with its --arch, so that bad input never waits for Taichi)."""
+    starts Taichi there with its --arch, so that bad input never waits for Taichi). A scene
+    predicted over ``limits`` (default: the scene's ``[limits]``) is refused before any
+    mesh is built (:mod:`sandbox.scene.budget`)."""
+    limits = spec.limits if limits is None else limits
+    check_size(scene_size(spec), limits, where=spec.source)
     builder = ModelBuilder()
     meshed = []
     for c in spec.colliders:
         if c.shape == "mesh":  # read (and check) collider files before Taichi starts
             collider_mesh(c)
     for c in spec.cloths:
-        uv, tris = mesh_cloth(c)
+        uv, tris = mesh_cloth(c, mesher_limits(limits))
         pins = resolve_pins(c, uv)
         meshed.append((c, uv, tris, pins))
     (start_runtime or runtime.ensure_init)()
@@ -251,8 +262,15 @@ def build_scene(spec: SceneSpec, *, implicit: ImplicitConfig | None = None,
         )  # fmt: skip
     model = builder.finalize(bending=spec.simulation.bending)
     model.colliders = [build_collider(c, spec.collision) for c in spec.colliders]
+    if spec.cloths:  # a mannequin's creases thickened for the coarsest cloth on it
+        edge = max(c.edge_length_m for c in spec.cloths)
+        for c, body in zip(spec.colliders, model.colliders, strict=True):
+            if c.shape == "mannequin":
+                body.follow_cloth(edge)
     model.self_collider = build_self_collider(model, spec, self_contact)
-    return scene_from_model(spec, model, implicit)
+    scene = scene_from_model(spec, model, implicit)
+    log_built(scene)
+    return scene
 
 
 def scene_from_model(spec: SceneSpec, model: Model,

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from sandbox.errors import SandboxError
+from sandbox.scene.budget import ResourceLimits, limits_from_table
 from sandbox.sim.materials import Material, material_from_spec
 
 INTEGRATORS = ("symplectic_euler", "implicit_euler")
@@ -133,6 +134,7 @@ class SceneSpec:
     colliders: list[ColliderSpec] = field(default_factory=list)
     seams: list[SeamSpec] = field(default_factory=list)
     source: str = "<scene>"
+    limits: ResourceLimits = field(default_factory=ResourceLimits)  # refused above these
 
 
 # ---------------------------------------------------------------------------- loading
@@ -153,7 +155,8 @@ def load_scene(path: str | Path) -> SceneSpec:
 def scene_from_dict(data: dict, *, source: str = "<scene>") -> SceneSpec:
     """Check a scene given as nested dicts (as read from TOML)."""
     r = _Reader(source)
-    r.keys(data, "", {"scene", "simulation", "stop", "cloth", "collision", "collider", "seam"})
+    r.keys(data, "", {"scene", "simulation", "stop", "cloth", "collision", "collider", "seam",
+                      "limits"})  # fmt: skip
     head = data.get("scene", {})
     r.keys(head, "[scene]", {"name", "description"})
     spec = SceneSpec(
@@ -163,6 +166,7 @@ def scene_from_dict(data: dict, *, source: str = "<scene>") -> SceneSpec:
     )
     spec.simulation = _simulation(r, data.get("simulation", {}))
     spec.stop = _stop(r, data.get("stop", {}))
+    spec.limits = limits_from_table(data.get("limits", {}), spec.limits, source)
     cloths = data.get("cloth", [])
     if not isinstance(cloths, list) or not cloths:
         raise SandboxError(f"{source}: the scene needs at least one [[cloth]] table")

@@ -12,7 +12,10 @@ where n is the outward normal of the nearest body face within reach, f_n = f_i·
 the vertex into the body, which the body's reaction cancels) and f_t the rest of f_i
 (which static friction holds up to μ_s |f_n|: Coulomb's cone, Bridson et al. 2002). In a
 concave crease (an armpit) the vertex leans on two faces, and the reaction may be any
-non-negative combination of their normals. ``r_i / (m_i |g|)``
+non-negative combination of their normals. Where the body's vertices hold the cloth's
+triangles up (the face pass, ``[collision] body_faces``), a corner of a triangle resting on
+a body vertex leans on the triangle's plane as well (:func:`face_support_normals`).
+``r_i / (m_i |g|)``
 is 1 for a vertex in free fall and 0 at rest. Cloth-on-cloth contact is not modelled as a
 support: a vertex resting on another layer shows its share of that layer's reaction.
 """
@@ -47,6 +50,57 @@ def _planes_kernel(body: ti.template(), x: ti.types.ndarray(), reach: float,
         for k in ti.static(range(3)):
             out[i, 1 + k] = n1[k]
             out[i, 4 + k] = n2[k]
+
+
+def face_support_normals(
+    x: np.ndarray, triangles: np.ndarray, body_v: np.ndarray, body_n: np.ndarray, reach_m: float
+) -> np.ndarray:
+    """Per cloth vertex, the mean outward normal (n, 3) of its triangles that rest on a body
+    vertex (zero where none does).
+
+    A triangle rests on body vertex p when p's projection along the triangle's normal n
+    (turned to p's outward vertex normal ``body_n``) falls inside it and p lies at most
+    ``reach_m`` [m] below it (s = (p − a)·n > −reach, and not deeper than a quarter of the
+    longest edge, as in :meth:`~sandbox.collision.body.BodyCollider.poke`). ``x``: (n, 3)
+    cloth positions [m]; ``triangles``: (k, 3); ``body_v``, ``body_n``: (m, 3).
+    """
+    from scipy.spatial import cKDTree
+
+    out = np.zeros_like(x)
+    t = np.asarray(triangles, np.int64)
+    if not len(t) or not len(body_v):
+        return out
+    a, b, c = x[t[:, 0]], x[t[:, 1]], x[t[:, 2]]
+    nc = np.cross(b - a, c - a)
+    area2 = np.linalg.norm(nc, axis=1)
+    longest = np.max(np.linalg.norm(np.stack([b - a, c - b, a - c]), axis=2), axis=0)
+    centre = (a + b + c) / 3.0
+    radius = np.max(np.linalg.norm(np.stack([a, b, c]) - centre, axis=2), axis=0) + reach_m
+    near = cKDTree(body_v).query_ball_point(centre, radius)
+    count = np.fromiter((len(v) for v in near), np.int64, len(near))
+    if not count.sum():
+        return out
+    tri = np.repeat(np.arange(len(t)), count)
+    vid = np.concatenate([np.asarray(v, np.int64) for v in near if v])
+    ok = area2[tri] > 1e-12 * longest[tri] ** 2
+    tri, vid = tri[ok], vid[ok]
+    n = nc[tri] / area2[tri, None]
+    n *= np.where(np.einsum("ij,ij->i", n, body_n[vid]) < 0.0, -1.0, 1.0)[:, None]
+    p = body_v[vid]
+    s = np.einsum("ij,ij->i", p - a[tri], n)
+    q = p - s[:, None] * n
+    # barycentric weights of q in (a, b, c)
+    e0, e1, e2 = b[tri] - a[tri], c[tri] - a[tri], q - a[tri]
+    d00, d01, d11 = (np.einsum("ij,ij->i", u, w) for u, w in ((e0, e0), (e0, e1), (e1, e1)))
+    d20, d21 = np.einsum("ij,ij->i", e2, e0), np.einsum("ij,ij->i", e2, e1)
+    den = d00 * d11 - d01 * d01
+    w1 = (d11 * d20 - d01 * d21) / den
+    w2 = (d00 * d21 - d01 * d20) / den
+    rest = (s > -reach_m) & (s < 0.25 * longest[tri]) & (w1 > 0) & (w2 > 0) & (w1 + w2 < 1)
+    for k in range(3):
+        np.add.at(out, t[tri[rest], k], n[rest])
+    length = np.linalg.norm(out, axis=1, keepdims=True)
+    return np.where(length > 0, out / np.maximum(length, 1e-300), 0.0)
 
 
 def _supported(f: np.ndarray, n1: np.ndarray, n2: np.ndarray, count: np.ndarray, mu: float):
@@ -99,7 +153,18 @@ def equilibrium_residual(model, x: np.ndarray, forces: np.ndarray, gravity) -> d
     r = np.linalg.norm(f, axis=1)
     touching = np.zeros(len(x), bool)
     for c in model.colliders:
-        count, n1, n2 = contact_normals(c, x, CONTACT_REACH * float(c.thickness[None]))
+        # a crease's thickness (BodyCollider.follow_cloth) holds cloth further out
+        reach = CONTACT_REACH * float(c.thickness[None]) + float(c.extra_max[None])
+        count, n1, n2 = contact_normals(c, x, reach)
+        if getattr(c, "face_pass", False) and model.tri_count:
+            nf = face_support_normals(x, model.tri_indices_np, c.body_x.to_numpy(),
+                                      c.vertex_normal.to_numpy(), reach)  # fmt: skip
+            held = np.linalg.norm(nf, axis=1) > 0
+            first = held & (count == 0)
+            second = held & (count == 1)
+            n1 = np.where(first[:, None], nf, n1)
+            n2 = np.where(second[:, None], nf, n2)
+            count = np.where(first | second, count + 1, count)
         left = _supported(f, n1, n2, count, float(c.mu_s[None]))
         touching |= left < r
         r = np.minimum(r, left)

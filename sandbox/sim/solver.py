@@ -59,7 +59,7 @@ class SymplecticEulerSolver:
         # the face pass: closed bodies' vertices against cloth triangles (only with bodies)
         self.face_bodies = [c for c in model.colliders if getattr(c, "face_pass", False)]
         self.has_faces = bool(self.face_bodies) and model.tri_count > 0
-        self.face_dv = self.face_count = None
+        self.face_dv = self.face_lift = self.face_count = None
         # the bodies' outward push of this step [m/s]: it moves a vertex, it is not kept
         self.has_bodies = len(model.colliders) > 0
         self.push = None
@@ -67,6 +67,7 @@ class SymplecticEulerSolver:
             self.push = ti.Vector.field(3, float, shape=max(1, model.particle_count))
         if self.has_faces:
             self.face_dv = ti.Vector.field(3, float, shape=max(1, model.particle_count))
+            self.face_lift = ti.Vector.field(3, float, shape=max(1, model.particle_count))
             self.face_count = ti.field(ti.i32, shape=max(1, model.particle_count))
         self.speed_limit = ti.field(float, shape=())
         """Largest speed [m/s] a particle keeps after its velocity update (0: no limit, the
@@ -467,10 +468,16 @@ class SymplecticEulerSolver:
         friction on its tangential velocity (as in ``respond``); corner k changes by
         w_k / Σw² · Δu, so the point at the weights w changes by exactly Δu. A particle
         shared by several such triangles takes their mean. Pinned particles do not move.
+
+        As in the vertex test (``respond_split``), the outward push moves the triangle this
+        step and is not kept: the velocity kept for the next step only loses the point's
+        inward normal speed (inelastic contact). Keeping depth/dt would launch the cloth
+        off the body every step and keep it moving.
         """
         m = self.model
         for i in range(m.particle_count):
             self.face_dv[i] = ti.Vector([0.0, 0.0, 0.0])
+            self.face_lift[i] = ti.Vector([0.0, 0.0, 0.0])
             self.face_count[i] = 0
         if dt > 0.0:
             for t in range(m.tri_count):
@@ -484,18 +491,23 @@ class SymplecticEulerSolver:
                         # the poking point's velocity change: normal, then Coulomb friction
                         dvn = depth / dt
                         u = w[0] * v[tv[0]] + w[1] * v[tv[1]] + w[2] * v[tv[2]]
-                        ut = u - u.dot(n) * n
+                        un = u.dot(n)
+                        ut = u - un * n
                         ut_len = ut.norm()
                         dv = dvn * n - ut
                         if ut_len > body.mu_s[None] * dvn:
                             dv = dvn * n - body.mu_k[None] * dvn / ut_len * ut
+                        # the part of the push the velocity does not keep
+                        lift = (dvn - ti.max(-un, 0.0)) * n
                         scale = 1.0 / w.dot(w)
                         for k in ti.static(range(3)):
                             ti.atomic_add(self.face_dv[tv[k]], scale * w[k] * dv)
+                            ti.atomic_add(self.face_lift[tv[k]], scale * w[k] * lift)
                             ti.atomic_add(self.face_count[tv[k]], 1)
         for i in range(m.particle_count):
             if self.face_count[i] > 0 and m.particle_inv_mass[i] > 0.0:
                 v[i] += self.face_dv[i] / self.face_count[i]
+                self.push[i] += self.face_lift[i] / self.face_count[i]
 
     @ti.func
     def _drift(self, x_in, v, x_out, dt, index, count):
