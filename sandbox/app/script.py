@@ -207,7 +207,8 @@ def run_script(session, actions: list[dict], out_dir, *, size=(480, 480), source
             raise SandboxError(f"{where}: bad arguments {a!r} ({exc})") from None
     summary = {"actions": log, "seams": [[list(map(list, s.side_a)), list(map(list, s.side_b))]
                                          for s in session.seams],
-               "measurements_cm": session.mannequin.measure()}  # fmt: skip
+               "measurements_cm": session.mannequin.measure(),
+               "contact": session.contact_metrics()}  # fmt: skip
     if frames:
         with atomic_path(out / "session.gif") as tmp:
             iio.imwrite(tmp, frames, extension=".gif", duration=1000 // fps, loop=0)

@@ -291,6 +291,13 @@ class Session:
             return 0.0
         return seam_gap_max(self.model, self.positions())
 
+    def contact_metrics(self) -> dict:
+        """The drape's contact measures of the current state (docs/collision_metrics.md):
+        cloth inside the body, body through the cloth, crossing cloth triangles."""
+        from sandbox.scene.run import contact_metrics
+
+        return contact_metrics(self.scene.model, self.positions())
+
     def pattern_with_seams(self):
         """The session's pattern with its seams replaced by the ones sewn here."""
         return dataclasses.replace(self.pattern, seams=list(self.seams))
