@@ -64,6 +64,10 @@ def test_the_bust_slider_resizes_the_body_and_the_collider(session):
                                atol=1e-5)  # fmt: skip
     session.run_frames(2)
     assert np.isfinite(session.positions()).all()
+    # the dress follows the body: none of it ends inside the grown body
+    session.set_measurements(bust_girth=before + 12.0, hip_girth=110.0)
+    m = session.contact_metrics()
+    assert m["vertices_inside_body"] == 0 and m["penetration_max_m"] == 0.0
     with pytest.raises(SandboxError, match="unknown measurement"):
         session.set_measurements(neck=30)
     session.set_measurements(bust_girth=before)

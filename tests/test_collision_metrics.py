@@ -450,3 +450,17 @@ def test_speed_20k_triangles():
     sd = body_inside_check(body.vertices, body.faces).signed_distance(p)
     assert time.perf_counter() - start < 5.0
     assert np.mean((sd < 0) == (np.linalg.norm(p, axis=1) < 0.3)) > 0.999
+
+
+def test_points_follow_a_body_that_grows():
+    """follow_body: a point beside a face moves with that face's closest point."""
+    from sandbox.collision import shapes
+    from sandbox.collision.body_probe import follow_body
+
+    v, t, _ = shapes.sphere([0, 0, 0], 0.1, 3)
+    p = np.array([[0.0, 0.103, 0.0], [0.0, 0.0, -0.105]])
+    q = follow_body(p, v, t, 1.5 * v)
+    r0, r1 = np.linalg.norm(p, axis=1), np.linalg.norm(q, axis=1)
+    # the gap to the surface is kept (a faceted sphere: within its sag)
+    np.testing.assert_allclose(r1 - 1.5 * 0.1, r0 - 0.1, atol=2e-3)
+    np.testing.assert_allclose(q / r1[:, None], p / r0[:, None], atol=1e-2)

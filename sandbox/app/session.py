@@ -314,7 +314,9 @@ class Session:
 
         Keys: ``bust_girth``, ``waist_girth``, ``hip_girth``, ``shoulder_width``,
         ``back_width``, ``shoulder_length``, ``back_length``; the others keep their values.
-        The collider moves to the new body between two steps.
+        The collider moves to the new body between two steps, and the cloth with it: each
+        free vertex by the displacement of its closest body point
+        (:func:`~sandbox.collision.body_probe.follow_body`), at rest.
         """
         from sandbox.garment import make_mannequin
         from sandbox.mannequin.measurements import KEYS
@@ -328,6 +330,13 @@ class Session:
         body = make_mannequin(self.size, merged)
         if body.vertices.shape != self.mannequin.vertices.shape:
             raise SandboxError("the resized mannequin has another structure")
+        from sandbox.collision.body_probe import follow_body
+
+        x = self.positions()
+        moved = follow_body(x, self.mannequin.vertices, self.mannequin.triangles, body.vertices)
+        free = self.model.particle_inv_mass.to_numpy()[: len(x)] > 0.0
+        x[free] = moved[free]
+        self.state.set(x, np.zeros_like(x))
         self.collider.update(body.vertices)
         self.mannequin = body
         self.measurements = merged

@@ -262,3 +262,33 @@ def body_through_cloth(cloth_vertices, cloth_triangles, body_vertices, body_tria
         "body_through_cloth_vertices": int(np.sum(depth > tolerance_m)),
         "body_through_cloth_max_m": float(depth.max()) if len(depth) else 0.0,
     }
+
+
+def follow_body(points, body_vertices, body_triangles, new_body_vertices) -> np.ndarray:
+    """Points (n, 3) [m] carried along with a body that changes shape but not structure.
+
+    Each point moves by the displacement of its closest point on the body: the same face and
+    barycentric coordinates on ``new_body_vertices`` (m, 3) as on ``body_vertices``. Cloth
+    resting on a mannequin that is resized keeps its place on it instead of ending inside
+    the grown body (where contact, which only keeps cloth from entering, cannot free it).
+    """
+    import open3d as o3d
+
+    p = np.asarray(points, np.float64)
+    v0 = np.asarray(body_vertices, np.float64)
+    v1 = np.asarray(new_body_vertices, np.float64)
+    t = np.asarray(body_triangles, np.int64)
+    if v0.shape != v1.shape:
+        raise SandboxError("follow_body: the new body has another number of vertices")
+    if not len(p):
+        return p.copy()
+    scene = o3d.t.geometry.RaycastingScene()
+    scene.add_triangles(o3d.core.Tensor(v0.astype(np.float32)),
+                        o3d.core.Tensor(t.astype(np.uint32)))  # fmt: skip
+    ans = scene.compute_closest_points(o3d.core.Tensor(p.astype(np.float32)))
+    face = ans["primitive_ids"].numpy().astype(np.int64)
+    uv = ans["primitive_uvs"].numpy().astype(np.float64)
+    w = np.column_stack([1.0 - uv[:, 0] - uv[:, 1], uv[:, 0], uv[:, 1]])
+    corners = t[face]
+    move = np.einsum("nk,nkx->nx", w, v1[corners] - v0[corners])
+    return p + move

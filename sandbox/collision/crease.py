@@ -23,15 +23,28 @@ EDGE_SPAN = 1.5
 mesh's longer edges and edges that cross the crease at a slant)."""
 
 
+def crease_adjacency(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The body's face pairs that share an edge: ``(pairs (e, 2), edges (e, 2), opposite
+    (e,))`` with ``opposite`` the vertex of the second face off the shared edge. Depends on
+    the triangles only, so a resized body reuses it."""
+    import trimesh
+
+    t = np.asarray(triangles, np.int64)
+    pairs, edges = trimesh.graph.face_adjacency(t, return_edges=True)
+    second = t[pairs[:, 1]]
+    opposite = second[(second != edges[:, :1]) & (second != edges[:, 1:])]
+    return pairs, edges, opposite
+
+
 def crease_thickness(vertices: np.ndarray, triangles: np.ndarray, cloth_edge_m: float,
-                     thickness_m: float) -> np.ndarray:  # fmt: skip
+                     thickness_m: float, adjacency=None) -> np.ndarray:  # fmt: skip
     """Extra contact thickness (m,) [m] per body vertex for a cloth of mean edge
     ``cloth_edge_m`` [m] kept ``thickness_m`` [m] from the body (module docstring).
 
-    ``vertices`` (m, 3) [m] and ``triangles`` (k, 3) outward: a closed body. Zero where no
-    convex crease is near; at most a quarter of the cloth edge span.
+    ``vertices`` (m, 3) [m] and ``triangles`` (k, 3) outward: a closed body; ``adjacency``:
+    :func:`crease_adjacency` of the triangles, if already made. Zero where no convex crease
+    is near; at most a quarter of the cloth edge span.
     """
-    import trimesh
     from scipy.spatial import cKDTree
 
     v = np.asarray(vertices, np.float64)
@@ -39,29 +52,32 @@ def crease_thickness(vertices: np.ndarray, triangles: np.ndarray, cloth_edge_m: 
     extra = np.zeros(len(v))
     if cloth_edge_m <= 0.0 or not len(t):
         return extra
-    mesh = trimesh.Trimesh(v, t, process=False)
-    pairs = mesh.face_adjacency
+    pairs, edges, opposite = adjacency if adjacency is not None else crease_adjacency(t)
     if not len(pairs):
         return extra
-    theta = mesh.face_adjacency_angles
-    convex = mesh.face_adjacency_convex
+    n = np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]])
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    n1, n2 = n[pairs[:, 0]], n[pairs[:, 1]]
+    theta = np.arccos(np.clip(np.einsum("ij,ij->i", n1, n2), -1.0, 1.0))
+    # convex: the second face's far corner lies behind the first face's plane
+    convex = np.einsum("ij,ij->i", v[opposite] - v[edges[:, 0]], n1) < 0.0
     span = EDGE_SPAN * cloth_edge_m
     depth = 0.5 * span * np.sin(0.5 * theta) - thickness_m * np.cos(0.5 * theta)
-    lift = np.minimum(depth / np.cos(0.5 * theta), 0.25 * span)
     keep = convex & (depth > 0.0)
     if not keep.any():
         return extra
-    ends = v[mesh.face_adjacency_edges[keep]]  # (c, 2, 3)
-    mid = ends.mean(axis=1)
-    half = 0.5 * np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1)
-    near = cKDTree(v).query_ball_point(mid, span + half)
-    for lift_e, (a, b), ids in zip(lift[keep], ends, near, strict=True):
-        if not ids:
-            continue
-        ids = np.asarray(ids)
-        ab = b - a
-        s = np.clip((v[ids] - a) @ ab / max(float(ab @ ab), 1e-30), 0.0, 1.0)
-        dist = np.linalg.norm(v[ids] - (a + s[:, None] * ab), axis=1)  # to the crease edge
-        weight = np.clip(2.0 - 2.0 * dist / span, 0.0, 1.0)
-        extra[ids] = np.maximum(extra[ids], lift_e * weight)
+    lift = np.minimum(depth[keep] / np.cos(0.5 * theta[keep]), 0.25 * span)
+    a, b = v[edges[keep, 0]], v[edges[keep, 1]]
+    half = 0.5 * np.linalg.norm(b - a, axis=1)
+    # candidate (crease, vertex) pairs: vertices within span + the longest half edge of a
+    # crease's midpoint, then their distance to the crease edge itself
+    near = cKDTree(0.5 * (a + b)).sparse_distance_matrix(
+        cKDTree(v), span + float(half.max()), output_type="ndarray")  # fmt: skip
+    c, i = near["i"].astype(np.int64), near["j"].astype(np.int64)
+    ab = b[c] - a[c]
+    s = np.clip(np.einsum("ij,ij->i", v[i] - a[c], ab)
+                / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-30), 0.0, 1.0)  # fmt: skip
+    dist = np.linalg.norm(v[i] - (a[c] + s[:, None] * ab), axis=1)
+    weight = np.clip(2.0 - 2.0 * dist / span, 0.0, 1.0)
+    np.maximum.at(extra, i, lift[c] * weight)
     return extra
