@@ -18,6 +18,10 @@ it over each face, so the cloth rises smoothly onto the crease.
 
 import numpy as np
 
+SADDLE_RAD = 0.5
+"""A concave crease sharper than this (29°) at either end of a convex one makes it a saddle,
+left alone (:func:`crease_thickness`)."""
+
 EDGE_SPAN = 1.5
 """Cloth edges across a crease are up to this many mean edge lengths long (an irregular
 mesh's longer edges and edges that cross the crease at a slant)."""
@@ -63,7 +67,13 @@ def crease_thickness(vertices: np.ndarray, triangles: np.ndarray, cloth_edge_m: 
     convex = np.einsum("ij,ij->i", v[opposite] - v[edges[:, 0]], n1) < 0.0
     span = EDGE_SPAN * cloth_edge_m
     depth = 0.5 * span * np.sin(0.5 * theta) - thickness_m * np.cos(0.5 * theta)
-    keep = convex & (depth > 0.0)
+    # a convex crease beside a concave one is a saddle (where an arm or a leg meets the
+    # torso): cloth spans the hollow there, and a lift would only pull it out of it
+    hollow = np.zeros(len(v), bool)
+    hollow[edges[~convex & (theta > SADDLE_RAD)].ravel()] = True
+    ring = hollow[edges[:, 0]] | hollow[edges[:, 1]]  # and one ring of faces around it
+    hollow[edges[ring].ravel()] = True
+    keep = convex & (depth > 0.0) & ~hollow[edges[:, 0]] & ~hollow[edges[:, 1]]
     if not keep.any():
         return extra
     lift = np.minimum(depth[keep] / np.cos(0.5 * theta[keep]), 0.25 * span)

@@ -127,6 +127,7 @@ def demo_figure(root: Path) -> Figure:
     value = (
         f"{verdict}: {state}, seam gap {'-' if gap is None else f'{gap * 1e3:.2f}'} mm, "
         f"{m.get('vertices_inside_body')} vertices inside the body, "
+        f"{m.get('body_through_cloth_vertices')} body vertices through the cloth, "
         f"{m.get('intersecting_triangle_pairs')} intersecting pairs; "
         f"ease {cm('ease_bust_cm')} / {cm('ease_waist_cm')} / {cm('ease_hip_cm')} cm "
         "(bust / waist / hip)"
