@@ -1,6 +1,7 @@
 """The Cusick drape test (validation.md §3): drape coefficient, node counter, the case."""
 
 import math
+from dataclasses import replace
 from types import SimpleNamespace
 
 import numpy as np
@@ -104,6 +105,30 @@ def test_settings_are_frozen_and_quick_is_coarser():
         s.edge_length_m = 0.02
     assert s.quick.edge_length_m > s.edge_length_m
     assert len(s.quick.presets) == 3
+
+
+def test_the_scene_waits_for_rest_and_can_refine_the_clamp():
+    """15 frames under the paper's rule (0.5 s, over half a period of the flaps' swing);
+    ``clamp_edge_m`` puts mesh circles at the clamp, 5 and 10 mm outside it."""
+    from sandbox.scene.build import mesh_cloth
+    from sandbox.sim.materials import get_material
+    from sandbox.validate.cusick import cusick_spec
+
+    s = CusickSettings()
+    spec = cusick_spec(get_material("jersey"), 0.02, s)
+    assert spec.stop.frames == 15 and spec.stop.time_limit_s == 8.0
+    assert spec.stop.max_displacement_m == 1.5e-3 and spec.stop.mean_displacement_m == 1e-4
+    uv, _ = mesh_cloth(spec.cloths[0])
+    fine = cusick_spec(get_material("jersey"), 0.02, replace(s, clamp_edge_m=0.005))
+    uv_fine, _ = mesh_cloth(fine.cloths[0])
+    r, r_fine = np.hypot(*uv.T), np.hypot(*uv_fine.T)
+    for ring in (0.09, 0.095, 0.1):
+        on = np.abs(r_fine - ring) < 1e-6
+        assert on.sum() >= 2 * math.pi * ring / 0.005 - 1
+    assert len(uv_fine) > len(uv) + 300
+    assert np.count_nonzero(r_fine <= 0.09 + 1e-6) > np.count_nonzero(r <= 0.09 + 1e-6)
+    pinned = {i for p in fine.cloths[0].pins for i in p.vertices}
+    assert pinned == set(np.nonzero(r_fine <= 0.09 * (1 + 1e-6))[0].tolist())
 
 
 def test_unknown_preset_is_a_sandbox_error():
