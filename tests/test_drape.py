@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from sandbox import runtime
 from sandbox.cli import main
 from sandbox.garment import DrapeConfig, build_drape, drape
 from sandbox.garment.config import IMPLICIT_GARMENT_EDGE_M, implicit_mesh_warning
@@ -159,6 +160,9 @@ def test_cli_implicit_drape_meshes_at_3_cm_unless_told(monkeypatch, tmp_path):
         raise SandboxError("stop here")
 
     monkeypatch.setattr(garment_package, "drape", fake_drape)
+    # the CLI starts Taichi in float32 before it drapes: that would reset this module's
+    # float64 runtime and the fields of its fixtures
+    monkeypatch.setattr(runtime, "init", lambda *a, **k: None)
     base = ["drape", "a-line-skirt", "--out", str(tmp_path), "--quiet"]
     assert main([*base, "--integrator", "implicit_euler"]) == 2
     assert main([*base, "--integrator", "implicit_euler", "--edge-cm", "2"]) == 2
