@@ -222,6 +222,32 @@ def test_rigid_impact_zones_resolve_what_the_impulses_leave():
     assert count_intersecting_pairs(x_end, model.tri_indices_np) == 0
 
 
+@pytest.mark.slow
+def test_zones_that_do_not_resolve_are_stopped_for_the_step_instead_of_aborting():
+    """With no rounds of rigid zones allowed, the step still ends free of collisions: the
+    colliding vertices stand still for it, and the step is counted."""
+    import dataclasses
+
+    from sandbox.collision.self_contact_config import SelfContactConfig
+
+    model, n_bottom = two_squares(pinned_bottom=False, speed=10.0)
+    config = dataclasses.replace(SelfContactConfig(), zone_rounds=0)
+    sc = model.self_collider = SelfCollider(model, thickness_m=0.003, friction=0.3,
+                                            config=config)  # fmt: skip
+    state = model.state()
+    dt = 0.01
+    sc._prepare_kernel(state.x, state.v, dt)
+    sc._rebuild_kernel(state.x, state.v, dt)
+    assert sc._mark_kernel(state.x, state.v, dt) > 0
+    sc.resolve_zones(state.x, state.v, dt)
+    assert sc._mark_kernel(state.x, state.v, dt) == 0
+    counts = sc.collision_counts()
+    assert counts["freeze_steps"] == 1
+    assert 0 < counts["frozen_vertices_max"] < model.particle_count
+    x_end = state.positions() + dt * (state.velocities() + sc.corr.to_numpy())
+    assert count_intersecting_pairs(x_end, model.tri_indices_np) == 0
+
+
 # ---------------------------------------------------------------- the issue's scenes
 @pytest.mark.slow
 def test_sheet_dropped_on_the_floor_piles_in_folds_without_crossing_itself():

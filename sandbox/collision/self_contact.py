@@ -214,6 +214,8 @@ class SelfCollider(PairGrid, PairQueries, CandidateList, ContactPasses, ImpactZo
         self.rebuilds = ti.field(ti.i32, shape=())
         self.ccd_hits = ti.field(ti.i64, shape=())
         self.zone_steps = 0
+        self.freeze_steps = 0  # steps whose impact zones were stopped (self_contact_zones)
+        self.frozen_vertices_max = 0
 
     def set_seam_partners(self, seam_pairs: np.ndarray | None, neighbours: bool = True) -> None:
         """Exclude the pairs joined by ``seam_pairs`` (k, 2) and, with ``neighbours``, their

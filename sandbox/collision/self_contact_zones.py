@@ -5,6 +5,13 @@ zones that move rigidly for this step (their linear and angular momentum kept; a
 a pinned vertex stands still), growing until no pair collides. This runs in numpy, outside
 the step kernel, and is rare.
 
+Zones that still collide after ``zone_rounds`` rounds (zones pressed together from several
+sides, each rigid motion driving into the next) are stopped for the step: every vertex of a
+zone gets zero velocity, and vertices that then collide join the stopped set. Vertices that
+stand still cannot meet (the step starts free of intersections), so this always ends: at
+worst the whole cloth skips one step. A step that needed it is counted (``freeze_steps``,
+reported in the run's ``self_collision`` metrics) instead of aborting the run.
+
 A mixin of :class:`sandbox.collision.self_contact.SelfCollider` (its fields and settings).
 """
 
@@ -62,7 +69,44 @@ class ImpactZones:
             corr[members] = 0.0
             state_v.from_numpy(v.astype(ftype))
             self.corr.from_numpy(corr.astype(ftype))
-        raise SandboxError("self-collision: rigid impact zones did not resolve the step")
+        self._freeze_zones(state_x, state_v, dt, in_zone)
+
+    def _freeze_zones(self, state_x, state_v, dt: float, still: np.ndarray) -> None:
+        """Stop the vertices ``still`` (n,) bool, and any vertex that then collides, for this
+        step (zero velocity and correction) until no candidate pair collides."""
+        n = self.model.particle_count
+        ftype = runtime.float_dtype()
+        self.freeze_steps += 1
+        for _ in range(n + 1):  # each round stops at least one moving vertex
+            v = state_v.to_numpy()
+            corr = self.corr.to_numpy()
+            v[:n][still] = 0.0
+            corr[:n][still] = 0.0
+            state_v.from_numpy(v.astype(ftype))
+            self.corr.from_numpy(corr.astype(ftype))
+            hits = self._mark_kernel(state_x, state_v, dt)
+            if hits == 0:
+                self.frozen_vertices_max = max(self.frozen_vertices_max, int(still.sum()))
+                return
+            quads = np.zeros((hits, 4), np.int32)
+            self.hit_fill[None] = 0
+            self._marked_quads_kernel(quads)
+            grown = still.copy()
+            grown[quads.ravel()] = True
+            if grown.sum() == still.sum():  # only stopped vertices collide (a degenerate
+                if still.all():  # contact test): stop the whole cloth, and if even that fails
+                    break
+                grown[:] = True
+            still = grown
+        raise SandboxError("self-collision: the step could not be made free of collisions")
+
+    def collision_counts(self) -> dict:
+        """Counters since construction: steps that needed rigid impact zones, steps whose
+        zones had to be stopped, the most vertices stopped in one step, list overflows."""
+        return {"impact_zone_steps": int(self.zone_steps),
+                "freeze_steps": int(self.freeze_steps),
+                "frozen_vertices_max": int(self.frozen_vertices_max),
+                "overflow_steps": int(self.overflow_steps)}  # fmt: skip
 
     @ti.kernel
     def _mark_kernel(self, x: ti.template(), v: ti.template(), dt: float) -> ti.i32:

@@ -123,6 +123,10 @@ def max_strain(model, x: np.ndarray) -> float:
 def summary_line(metrics: dict) -> str:
     """One line on what the guard did in a run, from its metrics (the CLI's summary):
     ``guard: 3 rollbacks, dt 0.12 -> 0.06 ms (smallest), 0.12 ms at the end``."""
+    return _guard_clause(metrics) + _zones_clause(metrics.get("self_collision") or {})
+
+
+def _guard_clause(metrics: dict) -> str:
     if not metrics.get("guard_enabled", True):
         return "guard: off (NaN checks only)"
     dt_ms = metrics.get("dt_s", math.nan) * 1e3
@@ -133,6 +137,19 @@ def summary_line(metrics: dict) -> str:
     end = metrics.get("guard_final_dt_s", math.nan) * 1e3
     return (f"guard: {n} rollback{'s' * (n != 1)}, dt {dt_ms:.3g} -> {low:.3g} ms (smallest), "
             f"{end:.3g} ms at the end")  # fmt: skip
+
+
+def _zones_clause(counts: dict) -> str:
+    """``; self-collision: rigid impact zones on 12 steps, 1 step stopped (40 vertices)``, or
+    nothing when the self-collision fail-safes never ran."""
+    zones, frozen = int(counts.get("impact_zone_steps", 0)), int(counts.get("freeze_steps", 0))
+    if not zones and not frozen:
+        return ""
+    out = f"; self-collision: rigid impact zones on {zones} step{'s' * (zones != 1)}"
+    if frozen:
+        out += (f", {frozen} step{'s' * (frozen != 1)} stopped where zones did not resolve "
+                f"(at most {counts.get('frozen_vertices_max', 0)} vertices)")  # fmt: skip
+    return out
 
 
 @dataclass
