@@ -100,10 +100,10 @@ def test_the_summary_line_names_the_self_collision_fail_safes():
     from sandbox.sim.guard import summary_line
 
     quiet = {"dt_s": 1.2e-4, "guard_rollbacks": 0,
-             "self_collision": {"impact_zone_steps": 0, "freeze_steps": 0}}  # fmt: skip
+             "self_collision_counts": {"impact_zone_steps": 0, "freeze_steps": 0}}  # fmt: skip
     assert summary_line(quiet) == "guard: no rollbacks, dt 0.12 ms throughout"
     busy = {"dt_s": 1.2e-4, "guard_rollbacks": 0,
-            "self_collision": {"impact_zone_steps": 12, "freeze_steps": 1,
+            "self_collision_counts": {"impact_zone_steps": 12, "freeze_steps": 1,
                                "frozen_vertices_max": 40}}  # fmt: skip
     assert summary_line(busy) == (
         "guard: no rollbacks, dt 0.12 ms throughout; self-collision: rigid impact zones on 12 "

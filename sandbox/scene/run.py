@@ -190,7 +190,7 @@ def state_metrics(scene: Scene) -> dict:
         out["seam_gap_max_m"] = seam_gap_max(model, x_final)
     out.update(contact_metrics(model, x_final))
     if model.self_collider is not None:
-        out["self_collision"] = model.self_collider.collision_counts()
+        out["self_collision_counts"] = model.self_collider.collision_counts()
     return out
 
 

@@ -123,7 +123,7 @@ def max_strain(model, x: np.ndarray) -> float:
 def summary_line(metrics: dict) -> str:
     """One line on what the guard did in a run, from its metrics (the CLI's summary):
     ``guard: 3 rollbacks, dt 0.12 -> 0.06 ms (smallest), 0.12 ms at the end``."""
-    return _guard_clause(metrics) + _zones_clause(metrics.get("self_collision") or {})
+    return _guard_clause(metrics) + _zones_clause(metrics.get("self_collision_counts") or {})
 
 
 def _guard_clause(metrics: dict) -> str:
