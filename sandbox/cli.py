@@ -318,8 +318,11 @@ def cmd_drape(args) -> int:
         body = load_garmentcode_body(args.garmentcode_body)
         args.size, measurements = body.size, dict(body.measurements)
         if not args.quiet:
-            print(f"{body.source}: size {body.size} resized to "
-                  + ", ".join(f"{k} {v:g}" for k, v in measurements.items()) + " cm")
+            print(
+                f"{body.source}: size {body.size} resized to "
+                + ", ".join(f"{k} {v:g}" for k, v in measurements.items())
+                + " cm"
+            )
             for note in body.notes:
                 print(f"  {note}")
     preflight.check_drape(args)

@@ -8,6 +8,7 @@ value and the problem. docs/errors.md lists what each command checks here and wh
 
 from __future__ import annotations
 
+import logging
 import math
 import os
 import tempfile
@@ -193,13 +194,20 @@ def check_drape(args) -> None:
 
 def check_pattern_file(garment, fabric=None) -> None:
     """Read and check a pattern file and the fabric it will be draped in (a library
-    garment's name passes: it is drafted from checked data)."""
+    garment's name passes: it is drafted from checked data); a fabric whose constants are
+    valid but odd gets one warning each (logger ``sandbox.pattern``,
+    :mod:`sandbox.scene.plausible`)."""
     path = Path(str(garment))
     if path.is_file():
         from sandbox.garment.inputs import material_for
         from sandbox.pattern.spec import load_pattern
+        from sandbox.scene.plausible import material_warnings
 
-        material_for(load_pattern(path), fabric)
+        pattern = load_pattern(path)
+        material = material_for(pattern, fabric)
+        where = f"{pattern.source}: fabric" if fabric is None else "--fabric"
+        for text in material_warnings(material, where):
+            logging.getLogger("sandbox.pattern").warning("%s", text)
 
 
 def check_gallery(args) -> None:
