@@ -277,9 +277,26 @@ def check_gui(args) -> list | None:
         raise SandboxError("--offscreen needs --script FILE (a JSON list of actions)")
     if args.script is None:
         return None
-    from sandbox.app.script import load_script
+    from sandbox.app.script import check_script_edges, load_script
 
     actions = load_script(args.script)
+    if any("sew" in a or "click_edge" in a for a in actions):
+        check_script_edges(actions, _pattern_of(args), args.script)
     if args.offscreen:
         check_output_dir(args.out, "--out", names=("summary.json", "session.gif"))
     return actions
+
+
+def _pattern_of(args):
+    """The window's pattern, loaded or drafted (for the size given) without Taichi."""
+    from sandbox.pattern.spec import load_pattern
+
+    path = Path(str(args.garment))
+    if path.is_file():
+        return load_pattern(path)
+    from sandbox.drafting import draft
+    from sandbox.mannequin.measurements import size_entry
+
+    name = str(args.garment)
+    data = draft(name, size_entry(args.size if args.size is not None else 12).measurements)
+    return load_pattern(data, where=f"garment {name!r}")

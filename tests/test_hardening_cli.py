@@ -179,6 +179,10 @@ CASES = [
     gui("script-two-actions", [{"undo": True, "clear": True}], "one action per object"),
     gui("script-bad-click", [{"click": [2, 0.5]}], "'click' takes [u, v]"),
     gui("script-bad-sew", [{"sew": {"a": [["front", "one"]], "b": []}}], "'sew' takes an object"),
+    gui("script-sew-unknown-panel", [{"sew": {"a": [["front", 1]], "b": [["sleeve", 0]]}}],
+        "action 0: no panel 'sleeve' in garment 'sheath-dress' (panels: front, back)"),
+    gui("script-click-edge-past-the-panel", [{"run_frames": 1}, {"click_edge": ["back", 40]}],
+        "action 1: panel 'back' has edges 0..12, not 40"),
     cmd("gui-offscreen-no-script", ["gui", "--offscreen"], "--offscreen needs --script"),
     # ------------------------------------------------------------ scene files
     run("scene-mannequin-nan", mannequin("measurements_cm = { bust_girth = nan }"),
