@@ -52,6 +52,7 @@ def build_parser() -> argparse.ArgumentParser:
         "  python -m sandbox drape t-shirt --size 12 --out out/t-shirt\n"
         "  python -m sandbox pattern a-line-skirt --bust 92 --out skirt.json\n"
         "  python -m sandbox gui sheath-dress --size 12\n"
+        "  python -m sandbox batch examples/batch_small.toml --out out/batch\n"
         "  python -m sandbox render out/t-shirt --turntable\n"
         "  python -m sandbox report --quick\n"
         "  python -m sandbox figures\n"
@@ -115,6 +116,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_mannequin_cli(sub)
     add_pattern_cli(sub)
+    from sandbox.batch.cli import add_cli as add_batch_cli
+
+    add_batch_cli(sub)  # `batch`: drapes on Ray (docs/batch.md)
     p = sub.add_parser("check-pattern", add_help=False,
                        help="validate and mesh pattern files; print panels and seams")  # fmt: skip
     p.add_argument("argv", nargs=argparse.REMAINDER)
