@@ -118,6 +118,8 @@ BAD_SPECS = [
     ('garments = "all"\n[bodies]\nrandom = { count = 2, seed = 1, spread = 0.9 }\n',
      "bodies.random.spread: must be a number in 0-0.2"),
     ('garments = "all"\n[bodies]\nsizes = [12, 12]\n', "bodies: two bodies are called 'size12'"),
+    ('garments = "all"\n[bodies]\ngarmentcode = ["none.yaml"]\n',
+     "bodies.garmentcode[0]: "),
     ("garments = [\n", "not a TOML file"),
 ]  # fmt: skip
 
@@ -170,6 +172,15 @@ def test_dry_run_prints_the_task_count_and_an_estimate(tmp_path, capsys):
     assert "= 6 tasks" in out and "6 to run (0 done)" in out
     assert "estimated wall time" in out and "drapes/hour" in out
     assert not (tmp_path / "o").exists()
+
+
+def test_a_garmentcode_body_file_is_a_body(tmp_path):
+    body = Path(__file__).parent / "data" / "garmentcode" / "bodies" / "mean_all.yaml"
+    path = tmp_path / "gc.toml"
+    path.write_text(f'garments = ["tank-top"]\n[bodies]\ngarmentcode = ["{body}"]\n')
+    (b,) = load_spec(path).bodies
+    assert (b.label, b.size, b.kind) == ("mean_all", 18, "garmentcode")
+    assert b.measurements()["bust_girth"] == 99.8407
 
 
 def test_random_bodies_are_reproducible_and_supported():

@@ -39,7 +39,7 @@ OWN_FABRIC = "own"
 TOP_KEYS = {
     "name": "a label for the batch (text)",
     "garments": '"all", or a list of library names and pattern .json files',
-    "bodies": "a table: sizes, measured, random",
+    "bodies": "a table: sizes, measured, garmentcode, random",
     "fabrics": f'a list of presets or "{OWN_FABRIC}" (default ["{OWN_FABRIC}"])',
     "edge_cm": "mesh edge in cm, a number or a list",
     "integrator": "symplectic_euler or implicit_euler, or a list",
@@ -57,7 +57,7 @@ TOP_KEYS = {
 }
 """Every key a batch spec may have at the top level, with what it takes."""
 
-BODY_KEYS = ("sizes", "measured", "random")
+BODY_KEYS = ("sizes", "measured", "garmentcode", "random")
 RANDOM_KEYS = ("count", "seed", "spread")
 DEFAULT_WALL_LIMIT_S = 1800.0
 """Default wall-clock limit per task [s] (the drape's own ``DrapeConfig.wall_limit_s``)."""
@@ -80,7 +80,7 @@ class Body:
     measurements_cm: tuple[tuple[str, float], ...] | None = None
     """Measurement name and value [cm], all seven, sorted by name; None: the database size."""
     kind: str = "size"
-    """``size``, ``measured`` or ``random``."""
+    """``size``, ``measured``, ``garmentcode`` or ``random``."""
 
     def measurements(self) -> dict[str, float] | None:
         return None if self.measurements_cm is None else dict(self.measurements_cm)
@@ -379,7 +379,7 @@ def _drape_config(table, w: _Where, *, method: str, wall: float,
 # ---------------------------------------------------------------------------- bodies
 def _bodies(table, w: _Where) -> tuple[Body, ...]:
     if not isinstance(table, dict):
-        raise w.error("bodies", "must be a table with sizes, measured and/or random")
+        raise w.error("bodies", "must be a table with sizes, measured, garmentcode and/or random")
     unknown = sorted(set(table) - set(BODY_KEYS))
     if unknown:
         raise w.error(f"bodies.{unknown[0]}", f"unknown key; known: {', '.join(BODY_KEYS)}")
@@ -388,10 +388,12 @@ def _bodies(table, w: _Where) -> tuple[Body, ...]:
         out += _sizes(table["sizes"], w)
     if "measured" in table:
         out += _measured(table["measured"], w)
+    if "garmentcode" in table:
+        out += _garmentcode(table["garmentcode"], w)
     if "random" in table:
         out += _random(table["random"], w)
     if not out:
-        raise w.error("bodies", "no body: give sizes, measured and/or random")
+        raise w.error("bodies", "no body: give sizes, measured, garmentcode and/or random")
     labels = [b.label for b in out]
     twice = sorted({x for x in labels if labels.count(x) > 1})
     if twice:
@@ -449,6 +451,27 @@ def _measured(value, w: _Where) -> list[Body]:
         except SandboxError as exc:
             raise w.error(key, str(exc)) from None
         out.append(Body(label, size, tuple(sorted(m.to_dict().items())), "measured"))
+    return out
+
+
+def _garmentcode(value, w: _Where) -> list[Body]:
+    """GarmentCode body files (relative to the spec), mapped as ``drape --garmentcode-body``
+    maps them; labelled by the file's name."""
+    from sandbox.pattern.garmentcode_body import load_garmentcode_body
+
+    out = []
+    for i, f in enumerate(_list(value, "bodies.garmentcode", w)):
+        key = f"bodies.garmentcode[{i}]"
+        if not isinstance(f, str):
+            raise w.error(key, f"must be a body file's path, got {f!r}")
+        path = Path(f) if Path(f).is_absolute() else Path(w.path).parent / f
+        try:
+            body = load_garmentcode_body(path)
+        except SandboxError as exc:
+            raise w.error(key, str(exc)) from None
+        label = re.sub(r"[^A-Za-z0-9._-]", "_", path.stem)
+        out.append(Body(label, body.size, tuple(sorted(body.measurements.items())),
+                        "garmentcode"))  # fmt: skip
     return out
 
 
