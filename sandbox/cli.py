@@ -191,6 +191,9 @@ def _add_drape_parsers(sub) -> None:
     p.add_argument("--time-limit", type=float, default=None, metavar="S",
                    help="simulated time limit in s (default 8)")  # fmt: skip
     p.add_argument("--no-self-collision", action="store_true", help="cloth passes through itself")
+    p.add_argument("--no-fit-check", action="store_true",
+                   help="drape a pattern even if its girth at the bust, waist or hip is well "
+                   "short of the body's (docs/drape.md)")  # fmt: skip
     p.add_argument("--fast-sew", action="store_true",
                    help="no self-collision while sewing: about 3x faster, but panels may "
                    "pass through each other and keep those crossings")  # fmt: skip
@@ -271,6 +274,8 @@ def drape_config_from_args(args, base=None):
         changes["method"] = args.method
     if args.no_self_collision:
         changes["self_collision"] = False
+    if getattr(args, "no_fit_check", False):
+        changes["fit"] = dataclasses.replace(config.fit, enabled=False)
     if args.fast_sew or args.no_self_collision:
         changes["sewing"] = dataclasses.replace(config.sewing, self_collision=False)
     if args.time_limit is not None:
