@@ -437,6 +437,7 @@ def _frame(session, r, sewing, sew_mode, dragging, shots, values, applied, size,
         st = session.stats
         gui.text(f"fps {hud['fps']:5.1f}   t = {st.sim_time_s:6.2f} s")
         gui.text(f"simulating at {hud['speed']:.3f} x real time")
+        gui.text(_step_line(session))
         gui.text(f"max {1e3 * st.max_displacement_m:7.2f} mm  mean "
                  f"{1e3 * st.mean_displacement_m:7.3f} mm")  # fmt: skip
         gui.text("converged" if st.converged else "moving")
@@ -454,3 +455,15 @@ def _frame(session, r, sewing, sew_mode, dragging, shots, values, applied, size,
 def _renderer_again(old: Renderer, session: Session, size) -> Renderer:
     old.window.destroy()
     return Renderer(session, size, show_window=True)
+
+
+def _step_line(session) -> str:
+    """The HUD's line on the step: its fixed dt, and the self-collision fail-safes so far
+    (steps that needed rigid impact zones, steps whose zones had to stand still)."""
+    line = f"dt {session.scene.dt_s * 1e3:.3g} ms (fixed)"
+    collider = session.model.self_collider
+    if collider is not None:
+        c = collider.collision_counts()
+        if c["impact_zone_steps"] or c["freeze_steps"]:
+            line += f"  zones {c['impact_zone_steps']}  stopped {c['freeze_steps']}"
+    return line
