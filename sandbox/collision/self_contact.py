@@ -216,6 +216,7 @@ class SelfCollider(PairGrid, PairQueries, CandidateList, ContactPasses, ImpactZo
         self.zone_steps = 0
         self.freeze_steps = 0  # steps whose impact zones were stopped (self_contact_zones)
         self.frozen_vertices_max = 0
+        self.touching_at_start = 0  # pairs left touching by a stopped step
 
     def set_seam_partners(self, seam_pairs: np.ndarray | None, neighbours: bool = True) -> None:
         """Exclude the pairs joined by ``seam_pairs`` (k, 2) and, with ``neighbours``, their

@@ -8,9 +8,12 @@ the step kernel, and is rare.
 Zones that still collide after ``zone_rounds`` rounds (zones pressed together from several
 sides, each rigid motion driving into the next) are stopped for the step: every vertex of a
 zone gets zero velocity, and vertices that then collide join the stopped set. Vertices that
-stand still cannot meet (the step starts free of intersections), so this always ends: at
-worst the whole cloth skips one step. A step that needed it is counted (``freeze_steps``,
-reported in the run's ``self_collision`` metrics) instead of aborting the run.
+stand still cannot meet, so this always ends; pairs still reported once all their vertices
+stand still touched at the step's start (closer than the contact test's tolerance, a
+crossing left by an earlier step) and go no deeper: they are counted
+(``touching_at_start``) and left to the repair passes. A step that needed this is counted
+(``freeze_steps``, in the run's ``self_collision_counts`` metrics) instead of aborting the
+run.
 
 A mixin of :class:`sandbox.collision.self_contact.SelfCollider` (its fields and settings).
 """
@@ -19,7 +22,6 @@ import numpy as np
 import taichi as ti
 
 from sandbox import runtime
-from sandbox.errors import SandboxError
 
 
 class ImpactZones:
@@ -77,7 +79,7 @@ class ImpactZones:
         n = self.model.particle_count
         ftype = runtime.float_dtype()
         self.freeze_steps += 1
-        for _ in range(n + 1):  # each round stops at least one moving vertex
+        while True:  # each round stops at least one more vertex, or ends
             v = state_v.to_numpy()
             corr = self.corr.to_numpy()
             v[:n][still] = 0.0
@@ -93,12 +95,14 @@ class ImpactZones:
             self._marked_quads_kernel(quads)
             grown = still.copy()
             grown[quads.ravel()] = True
-            if grown.sum() == still.sum():  # only stopped vertices collide (a degenerate
-                if still.all():  # contact test): stop the whole cloth, and if even that fails
-                    break
-                grown[:] = True
+            if grown.sum() == still.sum():
+                # only pairs of stopped vertices are left: they touched at the step's start
+                # (closer than the contact test's tolerance) and, standing still, go no
+                # deeper; the repair passes separate such pairs
+                self.frozen_vertices_max = max(self.frozen_vertices_max, int(still.sum()))
+                self.touching_at_start += hits
+                return
             still = grown
-        raise SandboxError("self-collision: the step could not be made free of collisions")
 
     def collision_counts(self) -> dict:
         """Counters since construction: steps that needed rigid impact zones, steps whose
@@ -106,6 +110,7 @@ class ImpactZones:
         return {"impact_zone_steps": int(self.zone_steps),
                 "freeze_steps": int(self.freeze_steps),
                 "frozen_vertices_max": int(self.frozen_vertices_max),
+                "touching_at_start": int(self.touching_at_start),
                 "overflow_steps": int(self.overflow_steps)}  # fmt: skip
 
     @ti.kernel
