@@ -16,7 +16,6 @@ from pathlib import Path
 
 from sandbox import preflight
 from sandbox.errors import SandboxError
-from sandbox.garment.config import DRAPE_METHODS
 from sandbox.precision import add_precision_flags
 from sandbox.scene.budget import add_limit_flags, limits_from_args, show_sizes
 from sandbox.scene.spec import INTEGRATORS
@@ -161,6 +160,7 @@ def _forward(module: str, command: str, argv: list[str]) -> int:
 
 
 def _add_drape_parsers(sub) -> None:
+    from sandbox.garment.config import DRAPE_METHODS  # imports Taichi: not for check-pattern
     from sandbox.mannequin.cli import add_measurement_flags
 
     p = sub.add_parser(
@@ -176,6 +176,10 @@ def _add_drape_parsers(sub) -> None:
                    "pattern file (.json, docs/pattern_format.md)")  # fmt: skip
     p.add_argument("--list", action="store_true", help="print the library's garments, one a line")
     add_measurement_flags(p)
+    p.add_argument("--garmentcode-body", type=Path, default=None, metavar="YAML",
+                   help="size the mannequin from a GarmentCode body file (its bust, waist, "
+                   "hips and nape-to-waist; the rest from the closest size; "
+                   "docs/garmentcode.md); not with --size or measurement flags")  # fmt: skip
     p.add_argument("--fabric", default=None, help="fabric preset (default: the garment's own)")
     p.add_argument("--edge-cm", type=float, default=None,
                    help="mesh edge length in cm (default 1; 3 with --integrator "
@@ -305,6 +309,19 @@ def cmd_drape(args) -> int:
     if not args.edge_cm > 0:
         raise SandboxError(f"--edge-cm {args.edge_cm}: must be a positive length in cm")
     measurements = {k: getattr(args, k) for k in KEYS if getattr(args, k) is not None}
+    if args.garmentcode_body is not None:
+        from sandbox.pattern.garmentcode_body import load_garmentcode_body
+
+        if measurements or args.size is not None:
+            raise SandboxError("--garmentcode-body sizes the mannequin: drop --size and the "
+                               "measurement flags")  # fmt: skip
+        body = load_garmentcode_body(args.garmentcode_body)
+        args.size, measurements = body.size, dict(body.measurements)
+        if not args.quiet:
+            print(f"{body.source}: size {body.size} resized to "
+                  + ", ".join(f"{k} {v:g}" for k, v in measurements.items()) + " cm")
+            for note in body.notes:
+                print(f"  {note}")
     preflight.check_drape(args)
     runtime.init(args.arch, float64=args.float64)
     res = drape(args.garment, size=args.size, measurements=measurements or None,
