@@ -52,6 +52,7 @@ def build_parser() -> argparse.ArgumentParser:
         "  python -m sandbox drape t-shirt --size 12 --out out/t-shirt\n"
         "  python -m sandbox pattern a-line-skirt --bust 92 --out skirt.json\n"
         "  python -m sandbox gui sheath-dress --size 12\n"
+        "  python -m sandbox batch examples/batch_small.toml --out out/batch\n"
         "  python -m sandbox render out/t-shirt --turntable\n"
         "  python -m sandbox report --quick\n"
         "  python -m sandbox figures\n"
@@ -115,6 +116,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_mannequin_cli(sub)
     add_pattern_cli(sub)
+    from sandbox.batch.cli import add_cli as add_batch_cli
+
+    add_batch_cli(sub)  # `batch`: drapes on Ray (docs/batch.md)
     p = sub.add_parser("check-pattern", add_help=False,
                        help="validate and mesh pattern files; print panels and seams")  # fmt: skip
     p.add_argument("argv", nargs=argparse.REMAINDER)
@@ -187,6 +191,9 @@ def _add_drape_parsers(sub) -> None:
     p.add_argument("--time-limit", type=float, default=None, metavar="S",
                    help="simulated time limit in s (default 8)")  # fmt: skip
     p.add_argument("--no-self-collision", action="store_true", help="cloth passes through itself")
+    p.add_argument("--no-fit-check", action="store_true",
+                   help="drape a pattern even if its girth at the bust, waist or hip is well "
+                   "short of the body's (docs/drape.md)")  # fmt: skip
     p.add_argument("--fast-sew", action="store_true",
                    help="no self-collision while sewing: about 3x faster, but panels may "
                    "pass through each other and keep those crossings")  # fmt: skip
@@ -267,6 +274,8 @@ def drape_config_from_args(args, base=None):
         changes["method"] = args.method
     if args.no_self_collision:
         changes["self_collision"] = False
+    if getattr(args, "no_fit_check", False):
+        changes["fit"] = dataclasses.replace(config.fit, enabled=False)
     if args.fast_sew or args.no_self_collision:
         changes["sewing"] = dataclasses.replace(config.sewing, self_collision=False)
     if args.time_limit is not None:
@@ -318,8 +327,11 @@ def cmd_drape(args) -> int:
         body = load_garmentcode_body(args.garmentcode_body)
         args.size, measurements = body.size, dict(body.measurements)
         if not args.quiet:
-            print(f"{body.source}: size {body.size} resized to "
-                  + ", ".join(f"{k} {v:g}" for k, v in measurements.items()) + " cm")
+            print(
+                f"{body.source}: size {body.size} resized to "
+                + ", ".join(f"{k} {v:g}" for k, v in measurements.items())
+                + " cm"
+            )
             for note in body.notes:
                 print(f"  {note}")
     preflight.check_drape(args)

@@ -8,6 +8,7 @@ value and the problem. docs/errors.md lists what each command checks here and wh
 
 from __future__ import annotations
 
+import logging
 import math
 import os
 import tempfile
@@ -193,13 +194,20 @@ def check_drape(args) -> None:
 
 def check_pattern_file(garment, fabric=None) -> None:
     """Read and check a pattern file and the fabric it will be draped in (a library
-    garment's name passes: it is drafted from checked data)."""
+    garment's name passes: it is drafted from checked data); a fabric whose constants are
+    valid but odd gets one warning each (logger ``sandbox.pattern``,
+    :mod:`sandbox.scene.plausible`)."""
     path = Path(str(garment))
     if path.is_file():
         from sandbox.garment.inputs import material_for
         from sandbox.pattern.spec import load_pattern
+        from sandbox.scene.plausible import material_warnings
 
-        material_for(load_pattern(path), fabric)
+        pattern = load_pattern(path)
+        material = material_for(pattern, fabric)
+        where = f"{pattern.source}: fabric" if fabric is None else "--fabric"
+        for text in material_warnings(material, where):
+            logging.getLogger("sandbox.pattern").warning("%s", text)
 
 
 def check_gallery(args) -> None:
@@ -269,9 +277,26 @@ def check_gui(args) -> list | None:
         raise SandboxError("--offscreen needs --script FILE (a JSON list of actions)")
     if args.script is None:
         return None
-    from sandbox.app.script import load_script
+    from sandbox.app.script import check_script_edges, load_script
 
     actions = load_script(args.script)
+    if any("sew" in a or "click_edge" in a for a in actions):
+        check_script_edges(actions, _pattern_of(args), args.script)
     if args.offscreen:
         check_output_dir(args.out, "--out", names=("summary.json", "session.gif"))
     return actions
+
+
+def _pattern_of(args):
+    """The window's pattern, loaded or drafted (for the size given) without Taichi."""
+    from sandbox.pattern.spec import load_pattern
+
+    path = Path(str(args.garment))
+    if path.is_file():
+        return load_pattern(path)
+    from sandbox.drafting import draft
+    from sandbox.mannequin.measurements import size_entry
+
+    name = str(args.garment)
+    data = draft(name, size_entry(args.size if args.size is not None else 12).measurements)
+    return load_pattern(data, where=f"garment {name!r}")

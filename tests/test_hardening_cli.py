@@ -70,6 +70,12 @@ def material(text):
     return scene(material=text)
 
 
+def seam(a):
+    """The sheet's edge 2 (its top) sewn to a ``from_m``/``to_m`` segment ``a``."""
+    return scene(collider=f'[[seam]]\na = [{{ cloth = "sheet", {a} }}]\n'
+                          'b = [{ cloth = "sheet", edge = 2 }]\n')  # fmt: skip
+
+
 # (id, argv with {t} for the test folder, files to write {name: text}, what stderr names)
 CASES = [
     # ------------------------------------------------------------ output paths
@@ -173,6 +179,10 @@ CASES = [
     gui("script-two-actions", [{"undo": True, "clear": True}], "one action per object"),
     gui("script-bad-click", [{"click": [2, 0.5]}], "'click' takes [u, v]"),
     gui("script-bad-sew", [{"sew": {"a": [["front", "one"]], "b": []}}], "'sew' takes an object"),
+    gui("script-sew-unknown-panel", [{"sew": {"a": [["front", 1]], "b": [["sleeve", 0]]}}],
+        "action 0: no panel 'sleeve' in garment 'sheath-dress' (panels: front, back)"),
+    gui("script-click-edge-past-the-panel", [{"run_frames": 1}, {"click_edge": ["back", 40]}],
+        "action 1: panel 'back' has edges 0..12, not 40"),
     cmd("gui-offscreen-no-script", ["gui", "--offscreen"], "--offscreen needs --script"),
     # ------------------------------------------------------------ scene files
     run("scene-mannequin-nan", mannequin("measurements_cm = { bust_girth = nan }"),
@@ -201,6 +211,17 @@ CASES = [
         "{t}/s.toml: cloth[0].pins[0].region_m: must be [[u_min, v_min]"),
     cmd("scene-missing", ["run", "{t}/none.toml", "--out", "{t}/o"],
         "{t}/none.toml: no such scene file"),
+    run("scene-seam-off-outline", seam("from_m = [0.05, 0.05], to_m = [0.05, 0.15]"),
+        "{t}/s.toml: seam[0].a[0]: from_m [0.05, 0.05] to_m [0.05, 0.15] does not lie on the "
+        "outline of cloth 'sheet'"),
+    run("scene-seam-past-corner", seam("from_m = [0.1, 0.0], to_m = [0.3, 0.0]"),
+        "{t}/s.toml: seam[0].a[0]: from_m [0.1, 0.0] to_m [0.3, 0.0] does not lie on the "
+        "outline of cloth 'sheet' (first point off it: (0.2, 0) m"),
+    run("scene-seam-shorter-than-edge", seam("from_m = [0.06, 0.0], to_m = [0.09, 0.0]"),
+        "{t}/s.toml: seam[0].a[0]: from_m [0.06, 0.0] to_m [0.09, 0.0] is shorter than the "
+        "mesh's spacing along it"),
+    run("scene-seam-zero-length", seam("from_m = [0.2, 0.1], to_m = [0.2, 0.1]"),
+        "{t}/s.toml: seam[0].a[0]: from_m [0.2, 0.1] to_m [0.2, 0.1] has zero length"),
 ]  # fmt: skip
 
 

@@ -65,6 +65,29 @@ def load_script(path) -> list[dict]:
     return data
 
 
+def check_script_edges(actions: list[dict], pattern, source) -> None:
+    """Every ``sew`` and ``click_edge`` action names a panel of ``pattern`` (a loaded
+    :class:`~sandbox.pattern.spec.Pattern`) and one of its edges; SandboxError naming the
+    script, the action and the panels or edges there are. Panel names and edge counts do
+    not change with the body, so this holds whatever the script's ``set`` and ``size``."""
+    for i, a in enumerate(actions):
+        if "sew" in a:
+            edges = [*a["sew"]["a"], *a["sew"]["b"]]
+        elif "click_edge" in a:
+            edges = [a["click_edge"]]
+        else:
+            continue
+        for panel, edge in edges:
+            if panel not in pattern.panels:
+                raise SandboxError(f"{source}: action {i}: no panel {panel!r} in "
+                                   f"{pattern.source} (panels: "
+                                   f"{', '.join(pattern.panels)})")  # fmt: skip
+            n = len(pattern.panels[panel].edges)
+            if not 0 <= edge < n:
+                raise SandboxError(f"{source}: action {i}: panel {panel!r} has edges "
+                                   f"0..{n - 1}, not {edge}")  # fmt: skip
+
+
 def _is_int(v) -> bool:
     return isinstance(v, int) and not isinstance(v, bool)
 

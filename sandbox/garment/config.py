@@ -13,6 +13,7 @@ import math
 from dataclasses import dataclass, field, fields
 
 from sandbox.errors import SandboxError
+from sandbox.garment.fit import FitConfig
 from sandbox.scene.budget import ResourceLimits
 from sandbox.scene.spec import INTEGRATORS
 
@@ -233,6 +234,9 @@ class DrapeConfig:
     acceptance: AcceptanceConfig = field(default_factory=AcceptanceConfig)
     limits: ResourceLimits = field(default_factory=ResourceLimits)
     """The largest drape a build accepts (vertices, memory; :mod:`sandbox.scene.budget`)."""
+    fit: FitConfig = field(default_factory=FitConfig)
+    """Whether the pattern closes around the body, checked before meshing
+    (:mod:`sandbox.garment.fit`)."""
 
     def __post_init__(self):
         if self.method not in DRAPE_METHODS:
@@ -303,7 +307,7 @@ def implicit_mesh_warning(integrator: str, edge_length_m: float | None) -> str |
 
 
 _SECTIONS = {"sewing": SewingConfig, "repair": RepairConfig, "acceptance": AcceptanceConfig,
-             "limits": ResourceLimits}  # fmt: skip
+             "limits": ResourceLimits, "fit": FitConfig}  # fmt: skip
 
 
 def _from_table(cls, table, where: str, base=None):

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 
 from sandbox.garment.build import build_drape, check_drape_size
 from sandbox.garment.config import DrapeConfig
+from sandbox.garment.fit import check_fit
 from sandbox.garment.inputs import make_mannequin, material_for, resolve_pattern
 from sandbox.garment.metrics import drape_metrics
 from sandbox.garment.multilevel import drape_coarse_to_fine
@@ -62,6 +63,7 @@ def drape(
         mannequin = make_mannequin(size, measurements)
     pattern = resolve_pattern(garment_or_path, mannequin)
     config = config or DrapeConfig()
+    fit = check_fit(pattern, mannequin, material_for(pattern, fabric), config.fit)
     # refused before the coarse level runs (build_drape checks each level again)
     check_drape_size(pattern, edge_length_m, material_for(pattern, fabric), config, say=False)
     scene = fallback = None
@@ -82,6 +84,7 @@ def drape(
             result.metrics.update(fallback)
             result.metrics["total_wall_time_s"] += fallback["coarse_wall_time_s"]
     metrics = drape_metrics(scene, result, build_s=build_s)
+    metrics["fit"] = [f.as_dict() for f in fit]
     paths = write_drape(scene, result, metrics, out_dir, render=render, meshes=meshes)
     return DrapeResult(scene, result, metrics, paths)
 

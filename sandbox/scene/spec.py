@@ -10,10 +10,12 @@ from __future__ import annotations
 import math
 import tomllib
 from dataclasses import dataclass, field
+from itertools import pairwise
 from pathlib import Path
 
 from sandbox.errors import SandboxError
 from sandbox.scene.budget import ResourceLimits, limits_from_table
+from sandbox.scene.plausible import PLAUSIBLE, PlausibleRanges, warn_scene
 from sandbox.sim.materials import Material, material_from_spec
 
 INTEGRATORS = ("symplectic_euler", "implicit_euler")
@@ -138,8 +140,9 @@ class SceneSpec:
 
 
 # ---------------------------------------------------------------------------- loading
-def load_scene(path: str | Path) -> SceneSpec:
-    """Read and check a TOML scene file."""
+def load_scene(path: str | Path, *, ranges: PlausibleRanges = PLAUSIBLE) -> SceneSpec:
+    """Read and check a TOML scene file; log a warning for each value outside ``ranges``
+    (:mod:`sandbox.scene.plausible`)."""
     path = Path(path)
     if not path.is_file():
         raise SandboxError(f"{path}: no such scene file")
@@ -149,7 +152,9 @@ def load_scene(path: str | Path) -> SceneSpec:
         raise SandboxError(f"{path}: not valid TOML ({exc})") from None
     except UnicodeDecodeError:
         raise SandboxError(f"{path}: not a text file") from None
-    return scene_from_dict(data, source=str(path))
+    spec = scene_from_dict(data, source=str(path))
+    warn_scene(spec, ranges)  # valid but odd values: one warning each
+    return spec
 
 
 def scene_from_dict(data: dict, *, source: str = "<scene>") -> SceneSpec:
@@ -388,15 +393,23 @@ def _seam(r: _Reader, t, w: str, cloths: dict) -> SeamSpec:
             name = r.string(e, we, "cloth", "")
             if name not in cloths:
                 r.fail(we, "cloth", f"no cloth named {name!r} (known: {', '.join(cloths)})")
-            outline = cloths[name].outline_m
+            cloth = cloths[name]
+            outline = cloth.outline_m
             if "edge" in e:
                 k = e["edge"]
                 if isinstance(k, bool) or not isinstance(k, int) or not 0 <= k < len(outline):
                     r.fail(we, "edge", f"must be an outline edge number 0..{len(outline) - 1}")
                 a, b = outline[k], outline[(k + 1) % len(outline)]
+                if _length(a, b) <= _same_point_m(cloth):
+                    r.fail(we, "edge", f"{k} has zero length (corners {k} and "
+                           f"{(k + 1) % len(outline)} are the same point, {list(a)})")  # fmt: skip
             else:
                 a = r.vector(e, we, "from_m", 2, None)
                 b = r.vector(e, we, "to_m", 2, None)
+                problem = _seam_segment_problem(cloth, a, b)
+                if problem:
+                    raise SandboxError(f"{r.source}: {we}: from_m {list(a)} to_m {list(b)} "
+                                       f"{problem}")  # fmt: skip
             side.append((name, tuple(a), tuple(b)))
         sides.append(side)
     k = t.get("stiffness_N_m")
@@ -408,6 +421,98 @@ def _seam(r: _Reader, t, w: str, cloths: dict) -> SeamSpec:
         stiffness_N_m=None if k is None else r.number(t, w, "stiffness_N_m", None, True),
         where=f"{r.source}: {w}",
     )
+
+
+def _length(a, b) -> float:
+    return math.hypot(b[0] - a[0], b[1] - a[1])
+
+
+def _same_point_m(c: ClothSpec) -> float:
+    """Distance [m] under which two outline points are one (the mesher drops the second)."""
+    from sandbox.pattern.mesh2d import DUPLICATE_TOLERANCE
+
+    us, vs = [u for u, _ in c.outline_m], [v for _, v in c.outline_m]
+    return DUPLICATE_TOLERANCE * max(max(us) - min(us), max(vs) - min(vs))
+
+
+def _seam_segment_problem(c: ClothSpec, a, b) -> str | None:
+    """Why a ``from_m``/``to_m`` seam edge would fail on the piece's mesh, or None.
+
+    The edge must be a segment of the outline or of a mesh line (``mesh_lines_m``), and
+    at least two of the points the mesher puts on those lines must lie on it: the corners
+    and the points that cut each side into pieces at most ``edge_length_m`` long (the
+    grid's columns and rows with ``mesher = "grid"``). Triangle keeps these points, so the
+    built mesh has them, and the builder finds the seam's vertices
+    (:func:`sandbox.sim.seams.edge_vertices`) with the tolerance used here.
+    """
+    length = _length(a, b)
+    if length <= _same_point_m(c):
+        return "has zero length"
+    ax, ay, dx, dy = a[0], a[1], b[0] - a[0], b[1] - a[1]
+    tol = 1e-7 * max(length, 1.0)  # distance to the line [m], as edge_vertices
+
+    def off(p):  # distance from the seam's line [m]
+        return abs((p[0] - ax) * dy - (p[1] - ay) * dx) / length
+
+    def at(p):  # parameter along the seam: 0 at from_m, 1 at to_m
+        return ((p[0] - ax) * dx + (p[1] - ay) * dy) / (length * length)
+
+    n = len(c.outline_m)
+    lines = [(c.outline_m[i], c.outline_m[(i + 1) % n]) for i in range(n)]
+    lines += [(p, q) for p, q in c.mesh_lines_m]
+    covered, points = [], []
+    for p, q in lines:
+        if off(p) > tol or off(q) > tol:
+            continue  # not along the seam
+        tp, tq = at(p), at(q)
+        covered.append((min(tp, tq), max(tp, tq)))
+        pieces = _pieces(_length(p, q), c)
+        points += [tp + (tq - tp) * j / pieces for j in _on_seam(tp, tq, pieces)]
+    reach = _covered_to(covered, tol / length)
+    if reach < 1.0:
+        u, v = ax + reach * dx, ay + reach * dy
+        us, vs = [u for u, _ in c.outline_m], [v for _, v in c.outline_m]
+        lines = " or mesh lines" if c.mesh_lines_m else ""
+        return (f"does not lie on the outline{lines} of cloth {c.name!r} (first point off "
+                f"it: ({u:.6g}, {v:.6g}) m; the outline spans u {min(us):g}..{max(us):g} m, "
+                f"v {min(vs):g}..{max(vs):g} m)")  # fmt: skip
+    points.sort()
+    count = len(points) and 1 + sum(y - x > tol / length for x, y in pairwise(points))
+    if count < 2:
+        return (f"is shorter than the mesh's spacing along it: {count} mesh vertex lies on "
+                f"it and a seam needs 2 or more (make it longer, or edge_length_m = "
+                f"{c.edge_length_m:g} m smaller)")  # fmt: skip
+    return None
+
+
+def _pieces(length: float, c: ClothSpec) -> int:
+    """Pieces the mesher cuts a side or mesh line of this length [m] into."""
+    h = c.edge_length_m
+    if c.mesher == "grid":  # sandbox.pattern.mesh2d.mesh_grid's columns and rows
+        return max(1, round(length / h))
+    return max(1, math.ceil(length / h - 1e-9))  # mesh2d.resample_outline
+
+
+def _on_seam(tp: float, tq: float, pieces: int) -> list[int]:
+    """Some j in 0..pieces whose points tp + (tq - tp) j / pieces lie on [0, 1] (the
+    first two and the last: enough to tell one point from two), as edge_vertices sees
+    them (1e-9 beyond either end)."""
+    step = (tq - tp) / pieces
+    if step == 0:
+        return [0] if -1e-9 <= tp <= 1 + 1e-9 else []
+    lo, hi = sorted(((-1e-9 - tp) / step, (1 + 1e-9 - tp) / step))
+    first, last = max(0, math.ceil(lo - 1e-9)), min(pieces, math.floor(hi + 1e-9))
+    return sorted({first, min(first + 1, last), last}) if first <= last else []
+
+
+def _covered_to(intervals, eps: float) -> float:
+    """How far along [0, 1] the intervals cover it from 0 without a gap (eps bridged)."""
+    reach = 0.0
+    for lo, hi in sorted(intervals):
+        if lo > reach + eps:
+            break
+        reach = max(reach, hi)
+    return 1.0 if reach >= 1.0 - eps else reach
 
 
 def _pin(r: _Reader, t, w: str) -> PinSpec:
