@@ -183,3 +183,44 @@ def test_a_model_with_room_for_seams_runs_with_none_sewn():
     assert x[0, 2] > 0 and x[n, 2] < 0.05  # towards each other
     moved = (x - m.initial_positions_np)[:, 2]
     assert abs(moved @ m.mass_np) < 1e-15  # the seam's pull conserves momentum
+
+
+def _halves_and_whole(h=0.02):
+    """Two 20 x 20 cm grids sewn along x = 0.2 (seam hinges), and the uncut 40 x 20 cm."""
+    from sandbox.pattern.mesh2d import mesh_grid
+    from sandbox.sim.builder import ModelBuilder
+    from sandbox.sim.materials import material_from_spec
+
+    mat = material_from_spec("cotton", where="test")
+    rot = np.eye(3)
+    halves = ModelBuilder()
+    uv, tris = mesh_grid(0.2, 0.2, h)
+    halves.add_cloth(name="a", pattern_uv=uv, triangles=tris, material=mat, rotation=rot,
+                     translation=(0.0, 0.0, 0.0))  # fmt: skip
+    halves.add_cloth(name="b", pattern_uv=uv, triangles=tris, material=mat, rotation=rot,
+                     translation=(0.2, 0.0, 0.0))  # fmt: skip
+    halves.add_seam(side_a=[(0, (0.2, 0.0), (0.2, 0.2))], side_b=[(1, (0.0, 0.0), (0.0, 0.2))],
+                    direction="same")  # fmt: skip
+    whole = ModelBuilder()
+    uv2, tris2 = mesh_grid(0.4, 0.2, h)
+    whole.add_cloth(name="w", pattern_uv=uv2, triangles=tris2, material=mat, rotation=rot,
+                    translation=(0.0, 0.0, 0.0))  # fmt: skip
+    return halves, whole, uv, uv2
+
+
+def test_a_sewn_seam_bends_like_the_uncut_cloth():
+    """Cut a sheet in two and sew it back: the seam gets one hinge per segment, as stiff
+    as the uncut sheet's hinges on that line (up to each mesh's own calibration)."""
+    halves, whole, uv, uv2 = _halves_and_whole()
+    m_cut, m_whole = halves.finalize(), whole.finalize()
+    m_open = _halves_and_whole()[0].finalize(seam_bending=False)
+    seam = m_cut.hinge_count - m_open.hinge_count
+    assert seam == 10  # 20 cm at 2 cm
+    k_seam = m_cut.hinge_stiffness_np[-seam:]
+    h, k = m_whole.hinge_indices_np, m_whole.hinge_stiffness_np
+    on_line = np.all(np.isclose(uv2[h[:, :2], 0], 0.2), axis=1)
+    assert on_line.sum() == 10
+    assert np.median(k_seam) == pytest.approx(np.median(k[on_line]), rel=0.15)
+    rows = m_cut.hinge_indices_np[-seam:]
+    n = len(uv)
+    assert np.all(rows[:, :3] < n) and np.all(rows[:, 3] >= n)  # edge and x2 on A, x3 on B

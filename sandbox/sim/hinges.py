@@ -121,3 +121,56 @@ def _slope_jump_matrix(uv, hinges):
 
 def _cross2(a, b):
     return a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+
+
+def seam_hinges(line_a, line_b, tris: np.ndarray, rest: np.ndarray):
+    """Hinges across one seam, so that a sewn seam bends like the cloth on either side.
+
+    A seam joins two boundary edges of the meshes; once it is closed, the triangle on each
+    side of it form a hinge like any interior edge (Eq. 7), flat at rest. For each segment
+    of line A (two consecutive particles on a boundary edge of their mesh) the segment of
+    line B at the same arc-length parameter (Fig. 5(b)'s matching) gives the other
+    triangle: the hinge is A's edge (x0, x1), x2 opposite it in A's triangle and x3
+    opposite B's edge in B's triangle. Only a seam that joins the two sides the way one
+    uncut sheet would (B's triangle runs the edge the other way round) gets hinges; a
+    seam that folds one side back over the other gets none.
+
+    Args:
+        line_a, line_b: :class:`~sandbox.sim.seams.SeamLine` s, B already running the
+            same way as A (as :func:`~sandbox.sim.seams.sew` orients it); global particles.
+        tris: (m, 3) global counter-clockwise triangles; rest: (n, 2) rest material
+            coordinates [m] of every particle.
+    Returns:
+        (h, 4) int64 hinges (x0, x1, x2, x3) and their (h,) rest weights l²/(A0+A1) [1],
+        with the (h, 2) edge angles from the warp [rad] of the A and the B edge.
+    """
+    opposite = {}
+    for t in np.asarray(tris, np.int64):
+        for k in range(3):
+            opposite[(int(t[k]), int(t[(k + 1) % 3]))] = int(t[(k + 2) % 3])
+    pa, pb = line_a.particles, line_b.particles
+    ta, tb = line_a.params, line_b.params
+    rows, weights, phis = [], [], []
+    for i in range(len(pa) - 1):
+        p, q = int(pa[i]), int(pa[i + 1])
+        if ((p, q) in opposite) == ((q, p) in opposite):  # not on the mesh, or interior
+            continue
+        j = int(np.clip(np.searchsorted(tb, 0.5 * (ta[i] + ta[i + 1])), 1, len(pb) - 1))
+        u, w = int(pb[j - 1]), int(pb[j])  # B's segment; u lies at p's end, w at q's
+        if ((u, w) in opposite) == ((w, u) in opposite):
+            continue
+        x0, x1, mu, mw = (p, q, u, w) if (p, q) in opposite else (q, p, w, u)
+        if (mw, mu) not in opposite:  # B runs the edge the same way: a fold, not a join
+            continue
+        x2, x3 = opposite[(x0, x1)], opposite[(mw, mu)]
+        if len({x0, x1, x2, x3}) < 4:
+            continue
+        e_a, e_b = rest[x1] - rest[x0], rest[mu] - rest[mw]
+        a0 = 0.5 * abs(_cross2(e_a[None], (rest[x2] - rest[x0])[None])[0])
+        a1 = 0.5 * abs(_cross2(e_b[None], (rest[x3] - rest[mw])[None])[0])
+        rows.append((x0, x1, x2, x3))
+        weights.append(float(e_a @ e_a) / (a0 + a1))
+        phis.append((math.atan2(e_a[1], e_a[0]), math.atan2(e_b[1], e_b[0])))
+    if not rows:
+        return np.zeros((0, 4), np.int64), np.zeros(0), np.zeros((0, 2))
+    return np.asarray(rows, np.int64), np.asarray(weights), np.asarray(phis)
