@@ -11,12 +11,7 @@ import math
 import numpy as np
 
 from sandbox.errors import SandboxError
-from sandbox.sim.hinges import (
-    bending_calibration,
-    find_hinges,
-    hinge_rest_weights,
-    seam_hinges,
-)
+from sandbox.sim.hinges import bending_calibration, find_hinges, hinge_rest_weights
 from sandbox.sim.materials import Material, bend_rigidity_at
 from sandbox.sim.model import Model, PieceInfo
 from sandbox.sim.seams import edge_vertices, merge_lines, sew
@@ -124,14 +119,8 @@ class ModelBuilder:
         )
         return len(self._pieces) - 1
 
-    def finalize(self, *, bending: bool = True, seam_capacity: int = 0,
-                 seam_bending: bool = True) -> Model:  # fmt: skip
+    def finalize(self, *, bending: bool = True, seam_capacity: int = 0) -> Model:
         """Allocate the Taichi Model. With ``bending=False`` no hinge is built.
-
-        With ``seam_bending`` (and ``bending``) every seam sewn here also gets hinges
-        across it (:func:`~sandbox.sim.hinges.seam_hinges`), so a closed seam bends like
-        the cloth beside it; their stiffness is the mean of the two sides' (Eq. 7 with
-        each side's rigidity across its own edge and its own mesh calibration).
 
         ``seam_capacity`` reserves room for that many seam springs beyond the ones sewn here,
         for scenes that sew while they run (:func:`sandbox.sim.seams.set_seam_springs`).
@@ -140,14 +129,12 @@ class ModelBuilder:
             raise SandboxError("the scene has no cloth piece")
         xs, vs, uvs, masses, pins, tri_all, rinv, areas, stiff = ([] for _ in range(9))
         h_idx, h_rest, h_k = [], [], []
-        rests, calib = [], []  # per piece: rest material coordinates, bending calibration
         pieces = []
         offset = tri_offset = 0
         for pc in self._pieces:
             uv, tris, mat = pc["uv"], pc["tris"], pc["material"]
             n = len(uv)
             rest, dm, area, mass = _rest_shape(pc)
-            rests.append(rest)
             world = pc["pos"] if pc["pos"] is not None else uv @ pc["rot"][:, :2].T + pc["t"]
             xs.append(world)
             vs.append(np.tile(pc["vel"], (n, 1)))
@@ -172,7 +159,6 @@ class ModelBuilder:
                 h_rest.append(np.zeros(int(keep.sum())))
                 h_k.append(k_b[keep])
                 hinge_count = int(keep.sum())
-            calib.append(c)
             pieces.append(
                 PieceInfo(
                     name=pc["name"],
@@ -189,12 +175,6 @@ class ModelBuilder:
         world_all = np.concatenate(xs)
         self._mass_all = np.concatenate(masses)
         seam_pairs, seam_rest, seam_k = self._sew(world_all, [p.particle_start for p in pieces])
-        if bending and seam_bending and self._seams:
-            idx, k = self._seam_hinges(pieces, np.concatenate(tri_all), np.concatenate(rests),
-                                       calib)  # fmt: skip
-            h_idx.append(idx)
-            h_rest.append(np.zeros(len(idx)))
-            h_k.append(k)
         hinge_indices = np.concatenate(h_idx) if h_idx else None
         if hinge_indices is not None and len(hinge_indices) == 0:
             hinge_indices = None
@@ -218,34 +198,12 @@ class ModelBuilder:
             seam_capacity=seam_capacity,
         )
 
-    def _seam_hinges(self, pieces, tris, rest, calib):
-        """Hinges (h, 4) across every seam sewn here and their stiffnesses (h,) [N·m]."""
-        starts = np.array([p.particle_start for p in pieces])
-        idx, k = [np.zeros((0, 4), np.int64)], [np.zeros(0)]
-        for line_a, line_b in self._oriented:
-            rows, weight, phi = seam_hinges(line_a, line_b, tris, rest)
-            if not len(rows):
-                continue
-            side_a = np.searchsorted(starts, rows[:, 0], side="right") - 1
-            side_b = np.searchsorted(starts, rows[:, 3], side="right") - 1
-            rigidity = np.zeros(len(rows))
-            for side, col in ((side_a, 0), (side_b, 1)):
-                for piece in np.unique(side):
-                    sel = side == piece
-                    rigidity[sel] += 0.5 * calib[piece] * bend_rigidity_at(
-                        pieces[piece].material, phi[sel, col])  # fmt: skip
-            keep = rigidity > 0
-            idx.append(rows[keep])
-            k.append((rigidity * weight)[keep])
-        return np.concatenate(idx), np.concatenate(k)
-
     def _sew(self, world: np.ndarray, starts: list[int]):
         """Seam springs of every add_seam call, as global particle pairs (or Nones)."""
         if not self._seams:
             return None, None, None
         pairs, rest, stiff = [], [], []
         self.seam_lines = []
-        self._oriented = []  # (A, B running the same way as A) per seam
         for sm in self._seams:
             lines = []
             for side in (sm["a"], sm["b"]):
@@ -262,8 +220,7 @@ class ModelBuilder:
                             raise SandboxError(f"{at}: needs 2 or more valid vertex indices")
                     parts.append((idx + starts[piece], uv[idx]))
                 lines.append(merge_lines(parts))
-            p, r, flipped = sew(lines[0], lines[1], world, sm["direction"])
-            self._oriented.append((lines[0], lines[1].reversed() if flipped else lines[1]))
+            p, r, _ = sew(lines[0], lines[1], world, sm["direction"])
             if sm["k"] is not None:
                 k = sm["k"]
             else:
