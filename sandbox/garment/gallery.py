@@ -340,7 +340,12 @@ def _front_tile(res) -> np.ndarray:
     from sandbox.garment.output import drape_image
 
     scene = res.scene
-    return drape_image(res.run.positions, scene.model.tri_indices_np, scene.garment.mannequin)
+    return drape_image(
+        res.run.positions,
+        scene.model.tri_indices_np,
+        scene.garment.mannequin,
+        material_uv=scene.model.material_uv_np,
+    )
 
 
 def write_sheet(path, tiles: list[tuple[str, np.ndarray | None]], *, tile_px: int = TILE_PX):

@@ -34,6 +34,8 @@ from sandbox.errors import SandboxError
 
 WRITE_SUFFIXES = (".obj", ".ply")
 READ_SUFFIXES = (".obj", ".ply", ".glb", ".gltf", ".stl")
+OBJ_MATERIAL = "fabric"
+"""The material an OBJ with a ``mtllib`` uses."""
 
 
 def _check_array(path: Path, name: str, value, columns: int, rows: int | None) -> np.ndarray:
@@ -92,9 +94,11 @@ def _validate(path: Path, vertices, triangles, uvs, vertex_colors):
     return v, t, uv, col
 
 
-def _obj_text(v, t, uv, col) -> str:
+def _obj_text(v, t, uv, col, mtllib: str | None = None) -> str:
     buf = io.StringIO()
     buf.write(f"# garment-sandbox mesh: {len(v)} vertices, {len(t)} triangles\n")
+    if mtllib is not None:
+        buf.write(f"mtllib {mtllib}\nusemtl {OBJ_MATERIAL}\n")
     if col is None:
         np.savetxt(buf, v, fmt="v %.9g %.9g %.9g")
     else:
@@ -131,12 +135,15 @@ def write_mesh(
     *,
     uvs=None,
     vertex_colors=None,
+    mtllib: str | None = None,
 ) -> Path:
     """Write a triangle mesh to ``.obj`` or ``.ply`` atomically; return the path.
 
     ``vertices`` (n, 3) in metres, ``triangles`` (m, 3) integer indices, ``uvs`` optional
     per-vertex (n, 2) pattern-plane coordinates in metres, ``vertex_colors`` optional
-    (n, 3) floats in 0..1. Bad input raises :class:`SandboxError` before anything is
+    (n, 3) floats in 0..1. ``mtllib``: an OBJ names this material file (beside it) and uses
+    its material :data:`OBJ_MATERIAL` (:func:`sandbox.render.export.write_textured_obj`
+    writes both). Bad input raises :class:`SandboxError` before anything is
     written; a failed write leaves no file behind.
     """
     path = Path(path)
@@ -148,7 +155,7 @@ def write_mesh(
         )
     v, t, uv, col = _validate(path, vertices, triangles, uvs, vertex_colors)
     if suffix == ".obj":
-        data = _obj_text(v, t, uv, col).encode("ascii")
+        data = _obj_text(v, t, uv, col, mtllib).encode("ascii")
     else:
         data = _ply_bytes(v, t, uv, col)
     try:

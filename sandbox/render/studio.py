@@ -1,8 +1,11 @@
 """Open3D renders of saved results: lit, smooth-shaded, front / back / side and a turntable.
 
 ``python -m sandbox render RESULT_DIR`` reads the garment and body a drape or run wrote
-(``garment.obj`` or ``mesh.obj``; ``body.obj`` if present) and renders them (see
-:class:`Studio`). Y is up and the body faces +Z.
+(``garment.glb``, else ``garment.obj`` or ``mesh.obj``; ``body.obj`` if present) and
+renders them (see :class:`Studio`). Y is up and the body faces +Z. A garment read from
+``garment.glb`` wears the woven check along its grain (:mod:`sandbox.render.fabric`);
+``--strain`` draws the strain maps of :mod:`sandbox.render.strain` instead
+(``strain_front.png``, ...), which need the rest shape the glTF carries.
 
 Views: ``front`` (camera on +Z), ``back`` (-Z), ``side`` (+X); ``--turntable N`` renders N
 frames around the Y axis and writes them as a GIF (and an MP4 with ``--mp4``, through
@@ -25,7 +28,7 @@ GARMENT_COLOUR = (0.22, 0.42, 0.78, 1.0)
 BODY_COLOUR = (0.80, 0.72, 0.64, 1.0)
 BACKGROUND = (1.0, 1.0, 1.0, 1.0)
 VIEW_DIRECTIONS = {"front": (0.0, 0.0, 1.0), "back": (0.0, 0.0, -1.0), "side": (1.0, 0.0, 0.0)}
-GARMENT_NAMES = ("garment.obj", "garment.ply", "mesh.obj", "mesh.ply")
+GARMENT_NAMES = ("garment.glb", "garment.obj", "garment.ply", "mesh.obj", "mesh.ply")
 
 
 class Studio:
@@ -46,8 +49,10 @@ class Studio:
     software (one of them alone about a second), so it is not used.
     """
 
-    def __init__(self, garment, body=None, *, size=(800, 800), backend: str = "open3d"):
+    def __init__(self, garment, body=None, *, size=(800, 800), backend: str = "open3d",
+                 material_uv=None):  # fmt: skip
         self.size = (int(size[0]), int(size[1]))
+        self.material_uv = None if material_uv is None else np.asarray(material_uv, float)
         self.backend = backend
         self.garment = (np.asarray(garment[0], float), np.asarray(garment[1], np.int64))
         self.body = None
@@ -69,8 +74,15 @@ class Studio:
         if self.body is not None:
             out.append({"vertices": turn(self.body[0]), "triangles": self.body[1],
                         "color": BODY_COLOUR[:3]})  # fmt: skip
-        out.append({"vertices": turn(self.garment[0]), "triangles": self.garment[1],
-                    "color": GARMENT_COLOUR[:3]})  # fmt: skip
+        garment = {"vertices": turn(self.garment[0]), "triangles": self.garment[1],
+                   "color": GARMENT_COLOUR[:3]}  # fmt: skip
+        if self.material_uv is not None:
+            from sandbox.render.fabric import textured_mesh
+
+            pixel_m = float((self.hi - self.lo).max()) / min(self.size)
+            garment = textured_mesh(garment["vertices"], garment["triangles"], self.material_uv,
+                                    GARMENT_COLOUR[:3], pixel_m=pixel_m)  # fmt: skip
+        out.append(garment)
         return out
 
     def _render(self, meshes, view: str) -> np.ndarray:
@@ -160,6 +172,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fps", type=float, default=12.0, help="turntable frame rate")
     p.add_argument("--mp4", action="store_true", help="the turntable as MP4 too")
     p.add_argument("--out", type=Path, default=None, help="output directory (default: RESULT)")
+    p.add_argument("--strain", action="store_true",
+                   help="strain maps instead (stretch along warp and weft, shear; Eq. 6, in "
+                   "%%): strain_VIEW.png; needs the garment.glb a drape writes")  # fmt: skip
     p.add_argument("--backend", choices=("open3d", "numpy"), default="open3d",
                    help="open3d (default; falls back to numpy without a GL context)")  # fmt: skip
     return p
@@ -183,10 +198,22 @@ def main(argv: list[str] | None = None) -> int:
             body_path = args.body
         out = args.out or args.result or garment_path.parent
         make_dir(out)
-        garment = read_mesh(garment_path)
+        material_uv = None
+        if garment_path.suffix.lower() == ".glb":
+            from sandbox.render.export import read_glb_garment
+
+            try:
+                *garment, material_uv = read_glb_garment(garment_path)
+            except SandboxError:  # a glTF from elsewhere: its meshes merged, untextured
+                garment = read_mesh(garment_path)
+        else:
+            garment = read_mesh(garment_path)
         body = read_mesh(body_path) if body_path is not None else None
         t0 = time.perf_counter()
-        studio = Studio(garment, body, size=args.size, backend=args.backend)
+        if args.strain:
+            return _strain_maps(args, out, garment, body, material_uv, garment_path, t0)
+        studio = Studio(garment, body, size=args.size, backend=args.backend,
+                        material_uv=material_uv)  # fmt: skip
         written = []
         for v in args.views:
             written.append(write_image(out / f"studio_{v}.png", studio.view(v)))
@@ -203,6 +230,30 @@ def main(argv: list[str] | None = None) -> int:
     except SandboxError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+
+
+def _strain_maps(args, out: Path, garment, body, material_uv, garment_path: Path, t0) -> int:
+    from sandbox.render.strain import strain_figure
+
+    if material_uv is None:
+        raise SandboxError(f"{garment_path}: --strain needs the rest shape along warp and weft, "
+                           "which garment.glb carries (written by drape)")  # fmt: skip
+    written, summary = [], {}
+    for v in args.views:
+        if v not in VIEW_DIRECTIONS:
+            raise SandboxError(f"unknown view {v!r}: choose from {', '.join(VIEW_DIRECTIONS)}")
+        img, summary = strain_figure(garment[0], garment[1], material_uv, body=body, view=v,
+                                     size=min(args.size), backend=args.backend)  # fmt: skip
+        written.append(write_image(out / f"strain_{v}.png", img))
+    print(f"rendered {len(written)} strain maps in {time.perf_counter() - t0:.1f} s")
+    for name, s in summary.items():
+        print(
+            f"  {name:5s}: {s['min_percent']:+.1f} to {s['max_percent']:+.1f} %, 99 % of "
+            f"triangles within ±{s['p99_percent']:.1f} % (scale ±{s['scale_percent']:.1f} %)"
+        )
+    for w in written:
+        print(f"  {w}")
+    return 0
 
 
 if __name__ == "__main__":

@@ -50,6 +50,8 @@ class DrawMesh:
     vertices: np.ndarray  # (n, 3) float64
     triangles: np.ndarray  # (m, 3) int64
     color: np.ndarray  # (3,) float64
+    vertex_colors: np.ndarray | None = None  # (n, 3) in 0..1, instead of ``color``
+    normals: np.ndarray | None = None  # (n, 3) unit, instead of the triangles' own
 
 
 @dataclass(frozen=True)
@@ -77,6 +79,15 @@ def check_points(where: str, name: str, value) -> np.ndarray:
     return a
 
 
+def _per_vertex(where: str, name: str, value, n: int) -> np.ndarray | None:
+    if value is None:
+        return None
+    arr = check_points(where, name, value)
+    if len(arr) != n:
+        raise SandboxError(f"{where}: {name} must have one row per vertex ({n}), got {len(arr)}")
+    return arr
+
+
 def prepare(
     target: str, meshes: Iterable[Mapping], lines: Iterable[Mapping]
 ) -> tuple[list[DrawMesh], list[DrawLine]]:
@@ -92,7 +103,12 @@ def prepare(
         t = t.astype(np.int64)
         if t.size and (t.min() < 0 or t.max() >= len(v)):
             raise SandboxError(f"{where}: triangle index out of range 0..{len(v) - 1}")
-        out_meshes.append(DrawMesh(v, t, check_color(where, item.get("color"), DEFAULT_MESH_COLOR)))
+        colors = _per_vertex(where, "vertex_colors", item.get("vertex_colors"), len(v))
+        if colors is not None and (colors.min() < 0 or colors.max() > 1):
+            raise SandboxError(f"{where}: vertex_colors must lie in 0..1")
+        normals = _per_vertex(where, "normals", item.get("normals"), len(v))
+        color = check_color(where, item.get("color"), DEFAULT_MESH_COLOR)
+        out_meshes.append(DrawMesh(v, t, color, colors, normals))
     out_lines: list[DrawLine] = []
     for i, item in enumerate(lines):
         where = f"{target}: lines[{i}]"
@@ -181,8 +197,9 @@ def vertex_normals(v: np.ndarray, t: np.ndarray) -> np.ndarray:
 
 def shade(mesh: DrawMesh, cam: Camera, ambient: float) -> np.ndarray:
     """Per-vertex colours (n, 3) in 0..1: two-sided Lambert, light from the upper left, plus
-    ``ambient``."""
-    n = vertex_normals(mesh.vertices, mesh.triangles)
+    ``ambient``; of the mesh's ``vertex_colors`` where it has them, else of its ``color``."""
+    n = mesh.normals.copy() if mesh.normals is not None else vertex_normals(
+        mesh.vertices, mesh.triangles)  # fmt: skip
     toward_viewer = -cam.forward
     n[n @ toward_viewer < 0] *= -1.0
     light = 0.75 * toward_viewer + 0.5 * cam.up - 0.4 * cam.right
@@ -190,7 +207,8 @@ def shade(mesh: DrawMesh, cam: Camera, ambient: float) -> np.ndarray:
     lambert = np.clip(n @ light, 0.0, 1.0)
     lit = np.linalg.norm(n, axis=1) > 0
     intensity = np.where(lit, ambient + (1.0 - ambient) * lambert, 1.0)
-    return np.clip(mesh.color[None, :] * intensity[:, None], 0.0, 1.0)
+    color = mesh.color[None, :] if mesh.vertex_colors is None else mesh.vertex_colors
+    return np.clip(color * intensity[:, None], 0.0, 1.0)
 
 
 def line_radius(line_width: float) -> float:

@@ -128,6 +128,7 @@ class ModelBuilder:
         if not self._pieces:
             raise SandboxError("the scene has no cloth piece")
         xs, vs, uvs, masses, pins, tri_all, rinv, areas, stiff = ([] for _ in range(9))
+        grain_uvs = []
         h_idx, h_rest, h_k = [], [], []
         pieces = []
         offset = tri_offset = 0
@@ -139,6 +140,7 @@ class ModelBuilder:
             xs.append(world)
             vs.append(np.tile(pc["vel"], (n, 1)))
             uvs.append(uv)
+            grain_uvs.append(rest)
             masses.append(mass)
             pins.append(pc["pins"])
             tri_all.append(tris + offset)
@@ -180,6 +182,7 @@ class ModelBuilder:
             hinge_indices = None
         return Model(
             rest_uv=np.concatenate(uvs),
+            material_uv=np.concatenate(grain_uvs),
             positions=np.concatenate(xs),
             velocities=np.concatenate(vs),
             mass=np.concatenate(masses),

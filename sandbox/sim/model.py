@@ -57,7 +57,9 @@ class Model:
       seam_rest           (S,)    rest length [m] (0 where the parameters match)
       seam_stiffness      (S,)    spring stiffness [N/m]
       seam_active         ()      the live count s that kernels loop over (set_seams)
-    Numpy copies of the inputs stay available as ``*_np`` attributes for writers and tests.
+    Numpy copies of the inputs stay available as ``*_np`` attributes for writers and tests;
+    ``material_uv_np`` (n, 2) [m] are the rest coordinates along warp and weft (the pattern
+    coordinates turned by each piece's grain), what textures and strain maps follow.
     """
 
     def __init__(
@@ -80,6 +82,7 @@ class Model:
         seam_rest: np.ndarray | None = None,
         seam_stiffness: np.ndarray | None = None,
         seam_capacity: int = 0,
+        material_uv: np.ndarray | None = None,
     ):
         self.particle_count = int(len(positions))
         self.tri_count = int(len(tri_indices))
@@ -91,6 +94,7 @@ class Model:
         self.seam_version = 0
         self.pieces = pieces
         self.rest_uv_np = rest_uv
+        self.material_uv_np = rest_uv if material_uv is None else material_uv
         self.initial_positions_np = positions
         self.initial_velocities_np = velocities
         self.mass_np = mass
