@@ -393,8 +393,10 @@ def test_a_six_task_batch_on_local_ray_writes_folders_and_manifest(six):
     for t in tasks:
         folder = out / "tasks" / t.task_id
         names = {p.name for p in folder.iterdir()}
-        assert {"metrics.json", "positions.npy", "garment.obj", "garment.ply",
-                "render.png", "render_back.png"} <= names and "body.obj" not in names  # fmt: skip
+        want = {"metrics.json", "positions.npy", "garment.obj", "garment.mtl",
+                "garment_texture.png", "garment.ply", "render.png", "render_back.png"}  # fmt: skip
+        assert want <= names
+        assert "body.obj" not in names and "garment.glb" not in names  # the body: body_mesh
         m = json.loads((folder / "metrics.json").read_text())
         assert m["batch"]["inputs"]["body"] == t.body.label and m["garment"] == t.garment.label
         assert m["batch"]["status"] in ("accepted", "rejected")

@@ -36,6 +36,9 @@ THREAD_VARIABLES = ("TI_CPU_MAX_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_T
 
 BODY_CACHE = 8
 """Mannequins a worker keeps built (a body is reused by every garment draped on it)."""
+BODY_FILES = ("body.obj", "garment.glb")
+"""A drape's files that hold the body (the glTF holds garment and body): kept only with
+``body_mesh``."""
 
 
 def worker_env(threads: int) -> dict[str, str]:
@@ -127,12 +130,13 @@ class DrapeWorker:
                         meshes=task.meshes, progress=False)  # fmt: skip
             files = {}
             for path in sorted(Path(tmp).iterdir()):
-                if path.is_file() and (task.body_mesh or path.name != "body.obj"):
+                if path.is_file() and (task.body_mesh or path.name not in BODY_FILES):
                     files[path.name] = path.read_bytes()
         metrics = json.loads(files.pop("metrics.json"))
         outputs = metrics.setdefault("outputs", {})
         if not task.body_mesh:
             outputs.pop("body_obj", None)
+            outputs.pop("garment_glb", None)
         outputs["positions"] = "positions.npy"
         x = np.asarray(res.run.positions)
         buf = io.BytesIO()
