@@ -23,10 +23,9 @@ from pathlib import Path
 
 import numpy as np
 
-from sandbox.atomic import atomic_path
 from sandbox.errors import SandboxError
 from sandbox.render.fabric import fabric_texture
-from sandbox.render.meshio import OBJ_MATERIAL, write_mesh
+from sandbox.render.meshio import OBJ_MATERIAL, write_bytes, write_mesh
 
 GLB_GARMENT = "garment"
 GLB_BODY = "body"
@@ -38,15 +37,6 @@ def _png_bytes(img: np.ndarray) -> bytes:
     return iio.imwrite("<bytes>", img, extension=".png")
 
 
-def _write_bytes(path: Path, data: bytes) -> Path:
-    try:
-        with atomic_path(path) as tmp:
-            tmp.write_bytes(data)
-    except OSError as exc:
-        raise SandboxError(f"{path}: could not write: {exc}") from None
-    return path
-
-
 def write_textured_obj(path: str | os.PathLike, vertices, triangles, pattern_uv, color) -> dict:
     """``path`` (OBJ with pattern coordinates as ``vt``), its ``.mtl`` and its texture PNG
     (``<stem>_texture.png``) in ``color`` (RGB 0..1). Returns {"obj", "mtl", "texture"}."""
@@ -54,11 +44,11 @@ def write_textured_obj(path: str | os.PathLike, vertices, triangles, pattern_uv,
     texture = path.with_name(f"{path.stem}_texture.png")
     mtl = path.with_suffix(".mtl")
     obj = write_mesh(path, vertices, triangles, uvs=pattern_uv, mtllib=mtl.name)
-    _write_bytes(texture, _png_bytes(fabric_texture(color)))
+    write_bytes(texture, _png_bytes(fabric_texture(color)))
     text = (f"# garment-sandbox fabric: a {color} check, one texture tile per metre of "
             f"pattern\nnewmtl {OBJ_MATERIAL}\nKa 0 0 0\nKd 1 1 1\nKs 0 0 0\nd 1\nillum 1\n"
             f"map_Kd {texture.name}\n")  # fmt: skip
-    _write_bytes(mtl, text.encode("ascii"))
+    write_bytes(mtl, text.encode("ascii"))
     return {"obj": obj, "mtl": mtl, "texture": texture}
 
 
@@ -97,7 +87,7 @@ def glb_bytes(vertices, triangles, material_uv, color, body=None,
 def write_glb(path: str | os.PathLike, vertices, triangles, material_uv, color,
               body=None) -> Path:  # fmt: skip
     """Write :func:`glb_bytes` to ``path`` atomically; return the path."""
-    return _write_bytes(Path(path), glb_bytes(vertices, triangles, material_uv, color, body))
+    return write_bytes(Path(path), glb_bytes(vertices, triangles, material_uv, color, body))
 
 
 def read_glb_garment(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -64,15 +64,21 @@ def sample_texture(texture: np.ndarray, uv_m: np.ndarray) -> np.ndarray:
     return out
 
 
+def _grid(level: int):
+    """The points (i, j) of a triangle split ``level`` times along each edge, and their
+    barycentric weights (k, 3) on its corners."""
+    pts = [(i, j) for i in range(level + 1) for j in range(level + 1 - i)]
+    return pts, np.array([[1.0 - (i + j) / level, i / level, j / level] for i, j in pts])
+
+
 def subdivide(v: np.ndarray, t: np.ndarray, uv: np.ndarray, level: int):
     """Split every triangle into ``level²`` (linear, on its plane): the finer mesh's
     vertices (k, 3), triangles (level² m, 3) and coordinates (k, 2). Vertices on shared
     edges are not merged (shading across them uses each triangle's own normal sums)."""
     if level <= 1:
         return v, t, uv
-    pts = [(i, j) for i in range(level + 1) for j in range(level + 1 - i)]
+    pts, bary = _grid(level)
     index = {p: k for k, p in enumerate(pts)}
-    bary = np.array([[1.0 - (i + j) / level, i / level, j / level] for i, j in pts])
     sub = []
     for i in range(level):
         for j in range(level - i):
@@ -114,8 +120,7 @@ def _smooth_normals(v: np.ndarray, t: np.ndarray, level: int) -> np.ndarray:
     n = vertex_normals(v, t)
     if level <= 1:
         return n
-    pts = [(i, j) for i in range(level + 1) for j in range(level + 1 - i)]
-    bary = np.array([[1.0 - (i + j) / level, i / level, j / level] for i, j in pts])
+    _, bary = _grid(level)
     out = np.einsum("pk,mkc->mpc", bary, n[t]).reshape(-1, 3)
     length = np.linalg.norm(out, axis=1, keepdims=True)
     return np.divide(out, length, out=np.zeros_like(out), where=length > 0)

@@ -158,11 +158,17 @@ def write_mesh(
         data = _obj_text(v, t, uv, col, mtllib).encode("ascii")
     else:
         data = _ply_bytes(v, t, uv, col)
+    return write_bytes(path, data, "mesh")
+
+
+def write_bytes(path: Path, data: bytes, what: str = "file") -> Path:
+    """Write ``data`` to ``path`` atomically (temporary file, then rename); an OSError
+    becomes a :class:`SandboxError` naming the file and ``what`` it is."""
     try:
         with atomic_path(path) as tmp:
             tmp.write_bytes(data)
     except OSError as exc:
-        raise SandboxError(f"{path}: could not write mesh: {exc}") from None
+        raise SandboxError(f"{path}: could not write {what}: {exc}") from None
     return path
 
 
