@@ -1,11 +1,12 @@
-"""Contact thickness over a body's convex creases (sandbox.collision.crease)."""
+"""Contact thickness over a body's convex creases and where it shows through the cloth
+(sandbox.collision.crease, BodyCollider.cover)."""
 
 import math
 
 import numpy as np
 import pytest
 
-from sandbox.collision.crease import EDGE_SPAN, crease_thickness
+from sandbox.collision.crease import EDGE_SPAN, cover_thickness, crease_thickness
 
 
 def ridge(theta_deg: float, half_width=0.05, length=0.4):
@@ -57,6 +58,55 @@ def test_the_lift_grows_with_the_cloth_edge_and_is_bounded():
     lifts = [crease_thickness(v, t, e, 0.002)[1] for e in (0.01, 0.0175, 0.03, 0.2)]
     assert lifts == sorted(lifts) and lifts[0] > 0.0
     assert lifts[-1] == pytest.approx(0.25 * EDGE_SPAN * 0.2)  # a quarter of the span
+
+
+def test_a_body_vertex_that_shows_is_covered_by_how_far_it_shows():
+    """A flat 1 cm grid of body vertices; one shows through a 3 cm cloth by 1.5 mm."""
+    xs = np.arange(-0.1, 0.1001, 0.01)
+    v = np.array([[x, 0.0, z] for x in xs for z in xs])
+    src = int(np.argmin(np.linalg.norm(v, axis=1)))
+    through = np.zeros(len(v))
+    through[src] = 1.5e-3
+    extra = np.zeros(len(v))
+    extra[np.argmax(v[:, 0])] = 4e-3  # a crease elsewhere keeps its own thickness
+    edge, margin = 0.03, 5e-4
+    out = cover_thickness(v, extra, through, edge, margin)
+    span = EDGE_SPAN * edge
+    dist = np.linalg.norm(v - v[src], axis=1)
+    want = np.maximum(extra, (1.5e-3 + margin) * np.clip(2.0 - 2.0 * dist / span, 0.0, 1.0))
+    np.testing.assert_allclose(out, want, rtol=0, atol=1e-15)
+    assert out[src] == pytest.approx(2e-3) and out[dist > span].max() == 4e-3
+    # where a thickness is already there, the raise comes on top of it
+    again = cover_thickness(v, out, through, edge, margin)
+    assert again[src] == pytest.approx(2e-3 + 1.5e-3 + margin)
+    # nothing shows, or no cloth edge known: unchanged
+    assert np.array_equal(cover_thickness(v, extra, np.zeros(len(v)), edge, margin), extra)
+    assert np.array_equal(cover_thickness(v, extra, through, 0.0, margin), extra)
+
+
+def test_the_collider_covers_a_sphere_showing_through_a_coarse_sheet():
+    """A 10 cm sphere under a flat 8 cm cloth square whose corners rest on it: the top shows
+    through; :meth:`BodyCollider.cover` thickens the contact there by how far it shows."""
+    import trimesh
+
+    from sandbox.collision.body import BodyCollider
+
+    sphere = trimesh.creation.icosphere(subdivisions=3, radius=0.1)
+    v, t = np.asarray(sphere.vertices), np.asarray(sphere.faces)
+    body = BodyCollider(v, t, thickness_m=2e-3)
+    body.follow_cloth(0.02)  # facets 12° apart: no crease thickness for a 2 cm cloth
+    assert body.vert_extra.to_numpy().max() == 0.0
+    top = int(np.argmax(v[:, 1]))
+    y = v[top, 1] - 1e-3  # the sheet 1 mm below the top
+    cloth = np.array([[-0.04, y, -0.04], [0.04, y, -0.04], [0.04, y, 0.04], [-0.04, y, 0.04]])
+    tris = np.array([[0, 2, 1], [0, 3, 2]])
+    assert body.cover(cloth, tris) > 0
+    extra = body.vert_extra.to_numpy()
+    assert extra[top] == pytest.approx(1e-3 + 0.25 * 2e-3, rel=1e-3)
+    assert body.extra_max[None] == pytest.approx(extra.max())
+    # a sheet clear of the body: nothing shows, nothing changes
+    assert body.cover(cloth + [0.0, 0.01, 0.0], tris) == 0
+    np.testing.assert_array_equal(body.vert_extra.to_numpy(), extra)
 
 
 @pytest.mark.slow

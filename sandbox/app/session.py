@@ -35,6 +35,13 @@ SEAM_START_FACTOR = 0.05
 """A new seam starts this soft (as the drape's sewing phase) so it does not snap the panels
 through the body; it stiffens geometrically to LIVE_SEAM_FACTOR over SEAM_RAMP_FRAMES."""
 SEAM_RAMP_FRAMES = 30
+COVER_BELOW_STOP = 2.0
+"""Once no vertex moves more than this many times the stop rule's largest displacement in a
+frame (the cloth is settling), the body's contact thickens wherever the body still shows
+through the cloth (:meth:`~sandbox.collision.body.BodyCollider.cover`); a cloth still
+falling or sliding crosses the body only for a moment and leaves the thickness alone."""
+COVER_EVERY_FRAMES = 10
+"""... checked every this many frames (20-30 ms a check at 3 and 1.5 cm)."""
 PICK_RADIUS_PX = 18.0
 """A click farther than this from every boundary edge (on screen) sews nothing."""
 
@@ -49,6 +56,9 @@ class FrameStats:
     mean_displacement_m: float = math.inf
     converged: bool = False
     wall_s: float = 0.0
+    body_shows: int = 0
+    """Body vertices that showed through the cloth at the frame's end (the contact then
+    thickened there; 0 when the frame was not checked: the cloth was still moving)."""
 
 
 class Session:
@@ -114,6 +124,9 @@ class Session:
         self._inv_mass0 = self.model.particle_inv_mass.to_numpy()[: self.model.particle_count]
         self.edges = self._boundary_edges()
         self._gravity = tuple(self.scene.control.gravity[None])
+        import open3d  # noqa: F401  the contact checks' ray caster: loaded here (1-2 s), not
+        # in the window's first settled frame (COVER_EVERY_FRAMES)
+
         self.set_gravity(sewn)  # the paper's sewing table: no gravity until the user says
         if sewn:
             self.sew_pattern_seams()
@@ -423,6 +436,11 @@ class Session:
         s.converged = (s.max_displacement_m < stop.max_displacement_m
                        and s.mean_displacement_m < stop.mean_displacement_m)  # fmt: skip
         s.wall_s = wall_s
+        s.body_shows = 0
+        if (s.frame % COVER_EVERY_FRAMES == 0
+                and s.max_displacement_m < COVER_BELOW_STOP * stop.max_displacement_m):  # fmt: skip
+            # settling: where the body still shows through, the contact thickens there
+            s.body_shows = self.collider.cover(self.positions(), self.model.tri_indices_np)
 
     def reset(self) -> None:
         """Panels back to their start positions (seams and body kept)."""

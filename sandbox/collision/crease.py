@@ -1,4 +1,5 @@
-"""Contact thickness over a body's convex creases, sized to the cloth that drapes over them.
+"""Contact thickness over a body's convex creases and where it shows through, sized to the
+cloth that drapes over it.
 
 A cloth vertex keeps the contact thickness h from the nearest body face, but the straight
 edge between two cloth vertices on either side of a convex crease (the shoulder line, a
@@ -14,6 +15,12 @@ cloth vertices on both sides by d / cos(θ/2) along their faces' normals hides t
 :func:`crease_thickness` returns that lift per body vertex, spread over the vertices within
 1.5 L of the crease edge (full within 0.75 L, falling to zero at 1.5 L); the collider interpolates
 it over each face, so the cloth rises smoothly onto the crease.
+
+Smooth curvature does the same over a coarse cloth: a 3 cm edge pulled taut over a
+grown bust cuts the body by its sagitta, L²/8R. Where the body still shows through a cloth
+that has settled, :func:`cover_thickness` raises the thickness around the body vertices
+that show, by how far they show, spread the same way (the window's contact, after each
+frame: :meth:`sandbox.collision.body.BodyCollider.cover`).
 """
 
 import numpy as np
@@ -49,8 +56,6 @@ def crease_thickness(vertices: np.ndarray, triangles: np.ndarray, cloth_edge_m: 
     :func:`crease_adjacency` of the triangles, if already made. Zero where no convex crease
     is near; at most a quarter of the cloth edge span.
     """
-    from scipy.spatial import cKDTree
-
     v = np.asarray(vertices, np.float64)
     t = np.asarray(triangles, np.int64)
     extra = np.zeros(len(v))
@@ -77,10 +82,44 @@ def crease_thickness(vertices: np.ndarray, triangles: np.ndarray, cloth_edge_m: 
     if not keep.any():
         return extra
     lift = np.minimum(depth[keep] / np.cos(0.5 * theta[keep]), 0.25 * span)
-    a, b = v[edges[keep, 0]], v[edges[keep, 1]]
+    spread_lift(extra, v, v[edges[keep, 0]], v[edges[keep, 1]], lift, span)
+    return extra
+
+
+def cover_thickness(vertices: np.ndarray, extra: np.ndarray, through_m: np.ndarray,
+                    cloth_edge_m: float, margin_m: float) -> np.ndarray:  # fmt: skip
+    """The contact thickness (m,) [m] per body vertex that covers the body where it shows
+    through a cloth of mean edge ``cloth_edge_m`` [m]: ``through_m`` (m,) [m] is how far each
+    body vertex shows (:func:`sandbox.collision.body_probe.through_cloth_depth`), ``extra``
+    (m,) [m] the thickness the contact already adds there.
+
+    A body vertex p showing by d lies above the cloth triangle whose corners are held the
+    thickness h + extra(p) from the body; raising those corners by d + ``margin_m`` puts the
+    triangle above p. The corners lie within a cloth edge span of p, so the raise is spread
+    as over a crease (:func:`spread_lift`). Never less than ``extra``; at most a quarter of
+    the span, as the crease thickness.
+    """
+    v = np.asarray(vertices, np.float64)
+    out = np.array(extra, np.float64, copy=True)
+    shows = np.nonzero(np.asarray(through_m) > 0.0)[0]
+    if cloth_edge_m <= 0.0 or not len(shows):
+        return out
+    span = EDGE_SPAN * cloth_edge_m
+    lift = np.minimum(out[shows] + through_m[shows] + margin_m, 0.25 * span)
+    spread_lift(out, v, v[shows], v[shows], lift, span)
+    return out
+
+
+def spread_lift(extra: np.ndarray, v: np.ndarray, a: np.ndarray, b: np.ndarray,
+                lift: np.ndarray, span: float) -> None:  # fmt: skip
+    """Raise ``extra`` (m,) [m] in place to each source's ``lift`` (s,) [m] at the body
+    vertices ``v`` (m, 3) within span/2 [m] of the source segment a–b (s, 3) (a point where
+    a = b), falling linearly to nothing at ``span``; the largest of the sources counts."""
+    from scipy.spatial import cKDTree
+
     half = 0.5 * np.linalg.norm(b - a, axis=1)
-    # candidate (crease, vertex) pairs: vertices within span + the longest half edge of a
-    # crease's midpoint, then their distance to the crease edge itself
+    # candidate (source, vertex) pairs: vertices within span + the longest half segment of a
+    # source's midpoint, then their distance to the segment itself
     near = cKDTree(0.5 * (a + b)).sparse_distance_matrix(
         cKDTree(v), span + float(half.max()), output_type="ndarray")  # fmt: skip
     c, i = near["i"].astype(np.int64), near["j"].astype(np.int64)
@@ -90,4 +129,3 @@ def crease_thickness(vertices: np.ndarray, triangles: np.ndarray, cloth_edge_m: 
     dist = np.linalg.norm(v[i] - (a[c] + s[:, None] * ab), axis=1)
     weight = np.clip(2.0 - 2.0 * dist / span, 0.0, 1.0)
     np.maximum.at(extra, i, lift[c] * weight)
-    return extra

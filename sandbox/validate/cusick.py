@@ -353,7 +353,7 @@ def report_lines(runs, fine, checks, s: CusickSettings, command: str, pictures: 
         f"{platform.machine()}), damping {s.damping_per_s:g}/s, at rest when the "
         f"paper's displacement rule held for {s.stop_frames} consecutive frames of 1/30 s, or "
         f"{s.time_limit_s:g} s simulated; residual: the mean equilibrium residual at the end, "
-        "in vertex weights (0 at rest); shadow raster {s.raster_pixel_m * 1e3:g} mm over "
+        f"in vertex weights (0 at rest); shadow raster {s.raster_pixel_m * 1e3:g} mm over "
         f"{s.raster_extent_m * 100:g} cm; nodes: hem maxima of prominence >= "
         f"{s.node_prominence_m * 1e3:g} mm after a {s.node_smoothing_deg:g}° Gaussian. "
         "c = (B/(ρ_A g))^(1/3), B the mean of warp and weft. Presets that are aliases of one "
