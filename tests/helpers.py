@@ -32,3 +32,28 @@ def sheet_scene(**over):
 
 def sheet_spec(**over):
     return scene_from_dict(sheet_scene(**over), source="test.toml")
+
+
+SMALL_SHEET_TOML = """
+[scene]
+name = "small_sheet"
+[stop]
+time_limit_s = 0.1
+[[cloth]]
+name = "sheet"
+size_m = [0.2, 0.2]
+edge_length_m = 0.05
+material = {material}
+pins = [{pins}]
+{cloth_extra}
+{after}
+"""
+
+
+def small_sheet_toml(material='"denim"', pins='{ corners = "top" }', cloth_extra="",
+                     after="") -> str:  # fmt: skip
+    """A 20 cm sheet pinned at its top corners for 0.1 s, as scene-file text: ``material``,
+    ``pins`` and ``cloth_extra`` (more keys) go into its cloth table, ``after`` (more
+    tables: colliders, seams) follows it."""
+    return SMALL_SHEET_TOML.format(material=material, pins=pins, cloth_extra=cloth_extra,
+                                   after=after)  # fmt: skip

@@ -15,28 +15,16 @@ import pytest
 
 from sandbox import runtime
 from sandbox.cli import main
+from tests.helpers import small_sheet_toml
 
 DATA = Path(__file__).parent / "data"
 UNWRITABLE = "/sys/sandbox-test-out"  # not writable, not even by root
 
-SHEET = """
-[scene]
-name = "small_sheet"
-[stop]
-time_limit_s = 0.1
-[[cloth]]
-name = "sheet"
-size_m = [0.2, 0.2]
-edge_length_m = 0.05
-material = {material}
-pins = [{pins}]
-{collider}
-"""
 MANNEQUIN = '[[collider]]\nshape = "mannequin"\n'
 
 
 def scene(material='"denim"', pins='{ corners = "top" }', collider=""):
-    return SHEET.format(material=material, pins=pins, collider=collider)
+    return small_sheet_toml(material, pins, after=collider)
 
 
 def script(*actions):

@@ -20,6 +20,7 @@ from sandbox.errors import SandboxError
 from sandbox.scene.plausible import PlausibleRanges, material_warnings, scene_warnings
 from sandbox.scene.spec import load_scene, scene_from_dict
 from sandbox.sim.materials import get_material, list_presets, material_from_spec
+from tests.helpers import small_sheet_toml
 
 DATA = Path(__file__).parent / "data"
 SCENES = sorted(Path(str(resources.files("sandbox") / "scenes")).glob("*.toml"))
@@ -31,19 +32,6 @@ BASE = {
                "material": "denim", "pins": [{"corners": "top"}]}],
 }  # fmt: skip
 
-SHEET_TOML = """
-[scene]
-name = "odd_sheet"
-[stop]
-time_limit_s = 0.1
-[[cloth]]
-name = "sheet"
-size_m = [0.2, 0.2]
-edge_length_m = 0.05
-material = {material}
-velocity_m_s = {velocity}
-pins = [{{ corners = "top" }}]
-"""
 
 
 def data(**edits) -> dict:
@@ -165,8 +153,8 @@ def test_every_preset_and_library_fabric_is_plausible():
 
 def test_a_scene_file_logs_its_warnings_when_read(tmp_path, caplog):
     path = tmp_path / "odd.toml"
-    path.write_text(SHEET_TOML.format(material="{ preset = \"denim\", density_kg_m2 = 300 }",
-                                      velocity="[0.0, 0.0, 80.0]"))  # fmt: skip
+    path.write_text(small_sheet_toml('{ preset = "denim", density_kg_m2 = 300 }',
+                                     cloth_extra="velocity_m_s = [0.0, 0.0, 80.0]"))  # fmt: skip
     with caplog.at_level(logging.WARNING, logger="sandbox.scene"):
         load_scene(path)
     got = [(r.name, r.levelno, r.getMessage()) for r in caplog.records]
@@ -218,7 +206,7 @@ def trapped(monkeypatch):
 
 def test_run_warns_before_taichi_starts(tmp_path, caplog, trapped):
     path = tmp_path / "s.toml"
-    path.write_text(SHEET_TOML.format(material='"denim"', velocity="[0.0, -50.0, 0.0]"))
+    path.write_text(small_sheet_toml(cloth_extra="velocity_m_s = [0.0, -50.0, 0.0]"))
     with caplog.at_level(logging.WARNING, logger="sandbox.scene"):
         with pytest.raises(trapped):
             main(["run", str(path), "--out", str(tmp_path / "o"), "--quiet"])
