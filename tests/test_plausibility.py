@@ -33,7 +33,6 @@ BASE = {
 }  # fmt: skip
 
 
-
 def data(**edits) -> dict:
     """The base scene with ``edits``: ``"section.key"`` (``cloth.key`` for the cloth,
     ``material.key`` for its material table, ``collider`` for a list of colliders)."""
