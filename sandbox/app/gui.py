@@ -103,6 +103,7 @@ class Renderer:
         self.body_i = ti.field(ti.i32, shape=body.triangles.size)
         self.body_i.from_numpy(body.triangles.astype(np.int32).ravel())
         self.cloth_x = ti.Vector.field(3, ti.f32, shape=m.particle_count)
+        self.cloth_n = ti.Vector.field(3, ti.f32, shape=m.particle_count)
         self.cloth_i = ti.field(ti.i32, shape=m.tri_indices_np.size)
         self.cloth_i.from_numpy(m.tri_indices_np.astype(np.int32).ravel())
         self.seam_x = ti.Vector.field(3, ti.f32, shape=2 * max(1, m.seam_capacity))
@@ -119,8 +120,10 @@ class Renderer:
             n = vertex_normals(np.asarray(body.vertices, np.float64), body.triangles)
             self.body_n.from_numpy(n.astype(np.float32))
             self._body_drawn = body
-        x = s.positions().astype(np.float32)
-        self.cloth_x.from_numpy(x)
+        x = s.positions()
+        self.cloth_x.from_numpy(x.astype(np.float32))
+        # given, as the body's: GGUI's own normals kernel runs in the simulation's precision
+        self.cloth_n.from_numpy(vertex_normals(x, s.model.tri_indices_np).astype(np.float32))
         sc = self.scene
         sc.set_camera(self.camera)
         sc.ambient_light((0.45, 0.45, 0.45))
@@ -128,7 +131,8 @@ class Renderer:
         sc.point_light(pos=(-2.0, 2.0, -2.0), color=(0.3, 0.3, 0.3))
         # the body's normals are given: GGUI would recompute them every frame
         sc.mesh(self.body_x, indices=self.body_i, normals=self.body_n, color=BODY_COLOUR)
-        sc.mesh(self.cloth_x, indices=self.cloth_i, color=CLOTH_COLOUR, two_sided=True)
+        sc.mesh(self.cloth_x, indices=self.cloth_i, normals=self.cloth_n, color=CLOTH_COLOUR,
+                two_sided=True)  # fmt: skip
         m = s.model
         if m.seam_count:  # the open seams: springs longer than SEAM_SHOWN_M
             ends = x[m.seam_pairs_np[: m.seam_count]]
