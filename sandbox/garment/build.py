@@ -34,8 +34,7 @@ class GarmentContext:
     ModelBuilder, kept to make seams live), ``meshes`` (panel name -> PanelMesh),
     ``piece_index`` (panel name -> piece index), ``placed`` (panel name -> (n, 3) placed
     positions [m]), ``seam_stiffness_N_m`` (stiffness of seams sewn live [N/m]: the cloth's
-    own), ``edge_length_m`` (the mesh edge [m]), ``integrator_warning`` (or None) and
-    ``gathered`` (a line per gathered seam side, :mod:`sandbox.pattern.gather`).
+    own), ``edge_length_m`` (the mesh edge [m]) and ``integrator_warning`` (or None).
     """
 
     pattern: object
@@ -49,7 +48,6 @@ class GarmentContext:
     seam_stiffness_N_m: float
     edge_length_m: float
     integrator_warning: str | None = None
-    gathered: tuple = ()
 
 
 def build_drape(
@@ -90,7 +88,6 @@ def build_drape(
     from sandbox import runtime
     from sandbox.collision.body import BodyCollider
     from sandbox.garment.circle_start import circle_gores, place_circle_skirt
-    from sandbox.pattern.gather import gathered_rest, gathered_sides
     from sandbox.pattern.panel_mesh import mesh_pattern, pattern_seam_sides
     from sandbox.pattern.placement.body import PlacementBody
     from sandbox.pattern.placement.place import place_pattern
@@ -113,12 +110,6 @@ def build_drape(
         placed = place_circle_skirt(pattern, meshes, body)
     else:
         placed = place_pattern(pattern, meshes, body)
-    edge = pattern.mesh_edge_m if edge_length_m is None else float(edge_length_m)
-    gathers = gathered_sides(pattern, config.gather)
-    rest = gathered_rest(meshes, gathers, edge, config.gather)
-    gathered = tuple(g.describe(pattern) for g in gathers)
-    for line in gathered:
-        log.info("%s: %s", pattern.source, line)
     runtime.ensure_init()
     builder = ModelBuilder()
     index = {}
@@ -132,8 +123,8 @@ def build_drape(
             positions=placed[name],
             where=f"{pattern.source}: panel {name!r}",
             meta={"mesher": "panel_mesh"},
-            rest_uv=rest.get(name),
         )
+    edge = pattern.mesh_edge_m if edge_length_m is None else float(edge_length_m)
     k_cloth = max(material.stretch_u_N_m, material.stretch_v_N_m)
     seam_k = k_cloth * max(1.0, edge / config.seam_reference_edge_m)
     names = list(meshes)
@@ -184,7 +175,6 @@ def build_drape(
         pattern=pattern, mannequin=mannequin, placement_body=body, config=config,
         builder=builder, meshes=meshes, piece_index=index, placed=placed,
         seam_stiffness_N_m=k_cloth, edge_length_m=edge, integrator_warning=warning,
-        gathered=gathered,
     )  # fmt: skip
     return scene
 

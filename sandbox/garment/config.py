@@ -14,7 +14,6 @@ from dataclasses import dataclass, field, fields
 
 from sandbox.errors import SandboxError
 from sandbox.garment.fit import FitConfig
-from sandbox.pattern.gather import GatherSettings
 from sandbox.scene.budget import ResourceLimits
 from sandbox.scene.spec import INTEGRATORS
 
@@ -231,8 +230,6 @@ class DrapeConfig:
     stiffness grows with the edge and the seam's gap under the weight does not depend on
     the mesh."""
     sewing: SewingConfig = field(default_factory=SewingConfig)
-    gather: GatherSettings = field(default_factory=GatherSettings)
-    """Which seam sides are gathered, and over how wide a band (:mod:`sandbox.pattern.gather`)."""
     repair: RepairConfig = field(default_factory=RepairConfig)
     acceptance: AcceptanceConfig = field(default_factory=AcceptanceConfig)
     limits: ResourceLimits = field(default_factory=ResourceLimits)
@@ -310,7 +307,7 @@ def implicit_mesh_warning(integrator: str, edge_length_m: float | None) -> str |
 
 
 _SECTIONS = {"sewing": SewingConfig, "repair": RepairConfig, "acceptance": AcceptanceConfig,
-             "limits": ResourceLimits, "fit": FitConfig, "gather": GatherSettings}  # fmt: skip
+             "limits": ResourceLimits, "fit": FitConfig}  # fmt: skip
 
 
 def _from_table(cls, table, where: str, base=None):

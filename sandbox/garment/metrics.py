@@ -35,7 +35,6 @@ def drape_metrics(scene, result, *, build_s: float = 0.0) -> dict:
         edge_length_m=g.edge_length_m,
         integrator=scene.spec.simulation.integrator,
         integrator_warning=g.integrator_warning,
-        gathered_seams=list(g.gathered),
         damping_per_s=float(scene.control.damping_per_s[None]),
         self_collision=scene.model.self_collider is not None,
         build_time_s=build_s,

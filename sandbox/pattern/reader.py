@@ -361,9 +361,8 @@ class PatternReader:
                          for side in (s.side_a, s.side_b)]  # fmt: skip
                 log.warning(
                     "%s: seam #%d%s: side a (%s) is %s long, side b (%s) %s: they differ by "
-                    "%s (more than %s and %.0f %%; ease is usually a few cm): the longer side "
-                    "is gathered to the shorter (docs/pattern_format.md, gathered seams); if "
-                    "that is not meant, check the seam's edges and the units",
+                    "%s (more than %s and %.0f %%; ease is usually a few cm): check the "
+                    "seam's edges and the units",
                     self.src, i, f" ({s.name!r})" if s.name else "", names[0], _length(la),
                     names[1], _length(lb), _length(diff), _length(lim.seam_mismatch_m),
                     100 * lim.seam_mismatch_ratio,

@@ -68,7 +68,6 @@ class ModelBuilder:
         positions: np.ndarray | None = None,
         where: str | None = None,
         meta: dict | None = None,
-        rest_uv: np.ndarray | None = None,
     ) -> int:
         """Add a flat pattern piece.
 
@@ -82,10 +81,6 @@ class ModelBuilder:
             velocity: initial velocity [m/s].
             positions: (n, 3) initial world positions [m] (for example a panel bent around
                 the body); when given, ``rotation`` and ``translation`` are ignored.
-            rest_uv: (n, 2) pattern-plane coordinates [m] of the rest shape where it is not
-                the cut (a gathered edge, :mod:`sandbox.pattern.gather`): Eq. 6's strains
-                and the hinges' rest weights are measured from it; the masses and the UVs
-                stay the cut's.
         Returns the index of the piece.
         """
         where = where or name
@@ -99,10 +94,6 @@ class ModelBuilder:
             raise SandboxError(f"{where}: a triangle refers to a vertex that does not exist")
         if not np.all(np.isfinite(uv)):
             raise SandboxError(f"{where}: pattern coordinates contain NaN or infinity")
-        if rest_uv is not None:
-            rest_uv = np.asarray(rest_uv, dtype=np.float64)
-            if rest_uv.shape != uv.shape or not np.all(np.isfinite(rest_uv)):
-                raise SandboxError(f"{where}: rest coordinates must be finite with shape (n, 2)")
         rot = np.eye(3) if rotation is None else np.asarray(rotation, dtype=np.float64)
         pins = np.zeros(len(uv), bool) if pinned is None else np.asarray(pinned, bool)
         pos = None
@@ -124,7 +115,6 @@ class ModelBuilder:
                 vel=np.asarray(velocity, dtype=np.float64),
                 pos=pos,
                 meta=meta or {},
-                rest_uv=rest_uv,
             )
         )
         return len(self._pieces) - 1
@@ -146,12 +136,11 @@ class ModelBuilder:
             uv, tris, mat = pc["uv"], pc["tris"], pc["material"]
             n = len(uv)
             rest, dm, area, mass = _rest_shape(pc)
-            cut = rest if pc["rest_uv"] is None else _material_coords(uv, pc["grain"])
             world = pc["pos"] if pc["pos"] is not None else uv @ pc["rot"][:, :2].T + pc["t"]
             xs.append(world)
             vs.append(np.tile(pc["vel"], (n, 1)))
             uvs.append(uv)
-            grain_uvs.append(cut)
+            grain_uvs.append(rest)
             masses.append(mass)
             pins.append(pc["pins"])
             tri_all.append(tris + offset)
@@ -247,22 +236,16 @@ class ModelBuilder:
         return np.concatenate(pairs), np.concatenate(rest), np.concatenate(stiff)
 
 
-def _material_coords(uv: np.ndarray, grain_rad: float) -> np.ndarray:
-    """Pattern coordinates (n, 2) [m] turned into (u, v) along warp and weft [m]."""
-    warp = np.array([math.cos(grain_rad), math.sin(grain_rad)])
-    weft = np.array([-math.sin(grain_rad), math.cos(grain_rad)])
-    return np.stack([uv @ warp, uv @ weft], axis=1)
-
-
 def _rest_shape(pc: dict):
     """One piece's rest shape: material coordinates (n, 2) [m] along warp and weft, the
     rest edge matrices D_m (m, 2, 2), the triangle areas (m,) [m²] and the lumped vertex
-    masses (n,) [kg] (of the cut: a gathered rest shape keeps the cut's mass);
-    SandboxError for a degenerate or clockwise triangle or a vertex that belongs to no
-    triangle."""
-    tris, mat = pc["tris"], pc["material"]
-    uv = pc["uv"] if pc["rest_uv"] is None else pc["rest_uv"]
-    rest = _material_coords(uv, pc["grain"])
+    masses (n,) [kg]; SandboxError for a degenerate or clockwise triangle or a vertex that
+    belongs to no triangle."""
+    uv, tris, mat = pc["uv"], pc["tris"], pc["material"]
+    g = pc["grain"]
+    warp = np.array([math.cos(g), math.sin(g)])
+    weft = np.array([-math.sin(g), math.cos(g)])
+    rest = np.stack([uv @ warp, uv @ weft], axis=1)  # (u, v) material coordinates
     d1 = rest[tris[:, 1]] - rest[tris[:, 0]]
     d2 = rest[tris[:, 2]] - rest[tris[:, 0]]
     det = d1[:, 0] * d2[:, 1] - d2[:, 0] * d1[:, 1]
@@ -279,12 +262,8 @@ def _rest_shape(pc: dict):
         )
     dm = np.stack([np.stack([d1[:, 0], d2[:, 0]], 1), np.stack([d1[:, 1], d2[:, 1]], 1)], 1)
     area = 0.5 * det
-    cut_area = area
-    if pc["rest_uv"] is not None:
-        c1, c2 = (pc["uv"][tris[:, k]] - pc["uv"][tris[:, 0]] for k in (1, 2))
-        cut_area = 0.5 * np.abs(c1[:, 0] * c2[:, 1] - c2[:, 0] * c1[:, 1])
     mass = np.zeros(len(uv))
-    np.add.at(mass, tris.ravel(), np.repeat(mat.density_kg_m2 * cut_area / 3.0, 3))
+    np.add.at(mass, tris.ravel(), np.repeat(mat.density_kg_m2 * area / 3.0, 3))
     if np.any(mass <= 0):
         raise SandboxError(f"{pc['where']}: a vertex belongs to no triangle")
     return rest, dm, area, mass
