@@ -38,7 +38,7 @@ def markdown_table(rows: list[dict]) -> str:
 
     lines = [
         "| garment | size | fabric | vertices | wall (s) | " + ACCEPTANCE_HEAD + " |",
-        "|" + "---|" * 11,
+        "|" + "---|" * 12,
     ]
     for r in rows:
         lines.append(

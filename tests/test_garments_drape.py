@@ -117,7 +117,8 @@ def test_the_gallery_table_counts_the_garments_that_meet_the_acceptance(tmp_path
             "seam_gap_max_m": 1.5e-3, "penetration_max_m": 0.0, "vertices_inside_body": 0,
             "intersecting_triangle_pairs": 0, "slid_off": False, "top_below_anchor_m": -0.01,
             "folded_area_pct": 0.5, "rolled_up": False, "nan_positions": 0,
-            "fabric": "jersey"}  # fmt: skip
+            "fabric": "jersey", "body_through_cloth_vertices": 1,
+            "body_through_cloth_max_m": 0.22e-3}  # fmt: skip
     good["meets_acceptance"] = meets_acceptance(good)
     gap = {**good, "seam_gap_max_m": 2.5e-3, "wall_time_s": 40.0}
     gap["meets_acceptance"] = meets_acceptance(gap)
@@ -130,10 +131,11 @@ def test_the_gallery_table_counts_the_garments_that_meet_the_acceptance(tmp_path
     assert not meets_acceptance({**good, "intersecting_triangle_pairs": 1})
     assert meets_acceptance({**good, "penetration_max_m": 0.9e-3})
     assert not meets_acceptance({**good, "penetration_max_m": 1.1e-3})
+    assert not meets_acceptance({**good, "body_through_cloth_max_m": 1.1e-3})
     rows = [_row("a", good), _row("b", gap), _row("c", slid)]
     text = write_table(tmp_path / "gallery.md", rows).read_text()
     assert "1 of 3 meet the acceptance; median wall time 30 s." in text
-    assert "| c | jersey | 900 | 30 | +8.0 | yes | 1.50 | 0 | 0 | 0.5 | no |" in text
+    assert "| c | jersey | 900 | 30 | +8.0 | yes | 1.50 | 0 | 1 (0.22) | 0 | 0.5 | no |" in text
 
 
 def test_the_gallery_reads_back_drapes_already_written_with_the_same_settings(tmp_path):

@@ -318,6 +318,8 @@ def _row(name: str, m: dict) -> dict:
         "converged": bool(m["converged"]),
         "seam_gap_max_m": m.get("seam_gap_max_m"),
         "vertices_inside_body": m.get("vertices_inside_body"),
+        "body_through_cloth_vertices": m.get("body_through_cloth_vertices"),
+        "body_through_cloth_max_m": m.get("body_through_cloth_max_m"),
         "intersecting_triangle_pairs": m.get("intersecting_triangle_pairs"),
         "ease_bust_cm": m.get("ease_bust_cm"),
         "ease_waist_cm": m.get("ease_waist_cm"),
@@ -387,8 +389,8 @@ def _cm(v) -> str:
 
 
 ACCEPTANCE_HEAD = (
-    "converged | seam gap max (mm) | inside body | intersecting pairs | folded (% area) | "
-    "meets acceptance"
+    "converged | seam gap max (mm) | inside body | body through (deepest mm) | "
+    "intersecting pairs | folded (% area) | meets acceptance"
 )
 
 
@@ -396,9 +398,11 @@ def acceptance_cells(r: dict) -> str:
     """The acceptance checks of one drape's metrics as Markdown cells, in the order of
     :data:`ACCEPTANCE_HEAD` (shared by the gallery table and ``benchmarks/bench_drape.py``)."""
     folded = r.get("folded_area_pct")
+    through = r.get("body_through_cloth_vertices")
+    through = "-" if through is None else f"{through} ({_mm(r.get('body_through_cloth_max_m'))})"
     return (
         f"{'yes' if r.get('converged') else 'no'} | {_mm(r.get('seam_gap_max_m'))} | "
-        f"{r.get('vertices_inside_body')} | {r.get('intersecting_triangle_pairs')} | "
+        f"{r.get('vertices_inside_body')} | {through} | {r.get('intersecting_triangle_pairs')} | "
         f"{'-' if folded is None else f'{folded:.1f}'} | "
         f"{'**yes**' if r.get('meets_acceptance') else 'no'}"
     )
@@ -416,12 +420,12 @@ def write_table(path, rows: list[dict], header: str = "") -> Path:
         "| garment | fabric | vertices | wall time (s) | top below anchor (cm) | "
         + ACCEPTANCE_HEAD
         + " | ease bust (cm) | ease waist (cm) | ease hip (cm) |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     passed = 0
     for r in rows:
         if "error" in r:
-            lines.append(f"| {r['garment']} | failed: {r['error'][:120]} |" + "  |" * 12)
+            lines.append(f"| {r['garment']} | failed: {r['error'][:120]} |" + "  |" * 13)
             continue
         passed += bool(r.get("meets_acceptance"))
         below = r.get("top_below_anchor_m")
@@ -438,7 +442,9 @@ def write_table(path, rows: list[dict], header: str = "") -> Path:
         "",
         "Seam gap: the largest distance between a seam's two sides (each point of one "
         "side to the point of the same parameter on the other, Fig. 5b). Inside body: "
-        "garment vertices inside the closed mannequin. Intersecting pairs: garment triangle "
+        "garment vertices inside the closed mannequin. Body through: mannequin vertices "
+        "that show through the garment where it covers them, and how far the deepest stands "
+        "out (docs/collision_metrics.md). Intersecting pairs: garment triangle "
         "pairs that cross (exact test). "
         "Top below anchor: how far the garment's highest point ends below the landmark it "
         "hangs from (shoulder point or waist; negative: above it); more than 3 cm counts as "
@@ -446,7 +452,8 @@ def write_table(path, rows: list[dict], header: str = "") -> Path:
         "turned more than 90 degrees from the placed one, and facing the body with the side "
         "that faced away from it); more than 2 % counts as rolled up. Meets acceptance: "
         "converged, seam gap "
-        "<= 2 mm, nothing inside the body deeper than 1 mm, no intersecting pairs, neither "
+        "<= 2 mm, nothing inside the body deeper than 1 mm, the body through the cloth by "
+        "no more than 1 mm, no intersecting pairs, neither "
         "slid off nor rolled up. Ease: garment girth "
         "minus body girth at the bust, waist and hip heights (convex hull of the section, as "
         "the tape measure); '-' where the garment does not reach. See docs/drape.md.",
