@@ -107,6 +107,10 @@ def test_the_collider_covers_a_sphere_showing_through_a_coarse_sheet():
     # a sheet clear of the body: nothing shows, nothing changes
     assert body.cover(cloth + [0.0, 0.01, 0.0], tris) == 0
     np.testing.assert_array_equal(body.vert_extra.to_numpy(), extra)
+    # a new body (the window's resize) starts again from the crease thickness
+    body.uncover()
+    body.update(v * 1.1)
+    assert body.vert_extra.to_numpy().max() == 0.0 and body.extra_max[None] == 0.0
 
 
 @pytest.mark.slow

@@ -350,6 +350,7 @@ class Session:
         free = self.model.particle_inv_mass.to_numpy()[: len(x)] > 0.0
         x[free] = moved[free]
         self.state.set(x, np.zeros_like(x))
+        self.collider.uncover()  # the old body's cover does not fit the new one
         self.collider.update(body.vertices)
         self.mannequin = body
         self.measurements = merged

@@ -109,6 +109,7 @@ class BodyCollider:
         self.extra_max = ti.field(float, shape=())
         self.cloth_edge_m = 0.0
         self._adjacency = None  # the faces' edge adjacency, made once (crease_adjacency)
+        self._crease_extra = None  # follow_cloth's thickness per body vertex, without cover
         self.mu_s[None] = friction_static
         self.mu_k[None] = friction_kinetic
         # grid: cell size near the mean edge length, dims fixed from the first bounds
@@ -170,8 +171,9 @@ class BodyCollider:
         thickness, over a cloth edge span around it
         (:func:`sandbox.collision.crease.cover_thickness`; needs :meth:`follow_cloth`).
         Returns the number of body vertices that showed (0: nothing changed). The
-        thickness only grows and belongs to the body's vertices, as the crease thickness;
-        about 10 ms a call on the mannequin, plus a grid rebuild when it grows."""
+        thickness only grows and belongs to the body's vertices, as the crease thickness,
+        until :meth:`uncover`; about 20-30 ms a call on the mannequin, plus a grid rebuild
+        when it grows."""
         from sandbox.collision.body_probe import through_cloth_depth
         from sandbox.collision.crease import cover_thickness
 
@@ -187,13 +189,20 @@ class BodyCollider:
             self.update(v)  # the grid, binned wider
         return shows
 
+    def uncover(self) -> None:
+        """Back to the crease thickness alone (:meth:`follow_cloth`), dropping what
+        :meth:`cover` added; takes effect at the next :meth:`update` (its grid)."""
+        if self._crease_extra is not None:
+            self._set_extra(self._crease_extra)
+
     def _write_extra(self, v: np.ndarray) -> None:
         from sandbox.collision.crease import crease_adjacency, crease_thickness
 
         if self._adjacency is None:
             self._adjacency = crease_adjacency(self.triangles_np)
-        self._set_extra(crease_thickness(v, self.triangles_np, self.cloth_edge_m,
-                                         self.thickness[None], self._adjacency))  # fmt: skip
+        self._crease_extra = crease_thickness(v, self.triangles_np, self.cloth_edge_m,
+                                              self.thickness[None], self._adjacency)  # fmt: skip
+        self._set_extra(self._crease_extra)
 
     def _set_extra(self, extra: np.ndarray) -> None:
         self.vert_extra.from_numpy(extra)
