@@ -41,7 +41,8 @@ frame (the cloth is settling), the body's contact thickens wherever the body sti
 through the cloth (:meth:`~sandbox.collision.body.BodyCollider.cover`); a cloth still
 falling or sliding crosses the body only for a moment and leaves the thickness alone."""
 COVER_EVERY_FRAMES = 10
-"""... checked every this many frames (20-30 ms a check at 3 and 1.5 cm)."""
+"""... checked every this many frames (20-45 ms a check at 3 and 1.5 cm,
+``benchmarks/bench_gui.py``)."""
 PICK_RADIUS_PX = 18.0
 """A click farther than this from every boundary edge (on screen) sews nothing."""
 

@@ -172,8 +172,8 @@ class BodyCollider:
         (:func:`sandbox.collision.crease.cover_thickness`; needs :meth:`follow_cloth`).
         Returns the number of body vertices that showed (0: nothing changed). The
         thickness only grows and belongs to the body's vertices, as the crease thickness,
-        until :meth:`uncover`; about 20-30 ms a call on the mannequin, plus a grid rebuild
-        when it grows."""
+        until :meth:`uncover`; about 20-45 ms a call on the mannequin, a grid rebuild included
+        when it grows (``benchmarks/bench_gui.py``)."""
         from sandbox.collision.body_probe import through_cloth_depth
         from sandbox.collision.crease import cover_thickness
 
