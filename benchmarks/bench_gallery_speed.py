@@ -8,10 +8,13 @@ Usage:
 
 ``--reference`` drapes with the paper's symplectic Euler all the way at 1 cm (the
 ``direct`` method) and stores each garment's final positions, rounded to 0.1 mm, in
-``benchmarks/reference/GARMENT.npz`` with its metrics in ``reference.json``. Without it, each
-garment is draped with ``--method`` and compared with its reference: ease at bust, waist
-and hip, hem height (the garment's lowest point) and the vertex distance to the reference
-(mean and 95th percentile; the same 1 cm mesh, vertex for vertex). The table goes to
+``benchmarks/reference/GARMENT.npz`` with its metrics in ``reference.json``, and each vertex's
+panel and pattern coordinates with the panels' triangles. Without it, each garment is
+draped with ``--method`` and compared with its reference: ease at bust, waist and hip, hem
+height (the garment's lowest point) and the vertex distance to the reference (mean and
+95th percentile): vertex for vertex on the same mesh, else each vertex against the
+reference's surface at its own pattern coordinates (a mesher change moves vertices, not
+the pattern). The table goes to
 ``docs/results/gallery_speed_METHOD.md`` (and ``.json``), where ``python -m sandbox figures``
 reads it, with the machine it ran on. Naming garments reruns only those: their rows replace
 theirs in an existing results file. ``--set`` changes a ``DrapeConfig`` setting for the run
@@ -79,7 +82,7 @@ def write_reference(garments: list[str]) -> None:
         q = np.round(x / QUANTUM_M).astype(np.int32)
         tmp = REFERENCE / f".{g}.npz"
         with open(tmp, "wb") as fh:
-            np.savez_compressed(fh, positions_01mm=q)
+            np.savez_compressed(fh, positions_01mm=q, **_pattern_arrays(r.scene))
         tmp.replace(REFERENCE / f"{g}.npz")
         index[g] = _summary(r.metrics, x, wall)
         index["_meta"] = _meta()
@@ -103,10 +106,55 @@ def _meta() -> dict:
                        f"{platform.python_version()}"}  # fmt: skip
 
 
-def load_reference(garment: str) -> np.ndarray:
-    """The reference's final positions of ``garment``, (n, 3) [m]."""
+def _pattern_arrays(scene) -> dict:
+    """Each vertex's panel (index into ``panels``) and pattern coordinates [m], and the
+    mesh's triangles: what places a vertex of another mesh of the same garment on it."""
+    model, meshes = scene.model, scene.garment.meshes
+    panel = np.empty(model.particle_count, np.int16)
+    uv = np.empty((model.particle_count, 2), np.float32)
+    for k, piece in enumerate(model.pieces):
+        sl = slice(piece.particle_start, piece.particle_start + piece.particle_count)
+        panel[sl] = k
+        uv[sl] = meshes[piece.name].points
+    return {"panel": panel, "uv_m": uv, "triangles": model.tri_indices_np.astype(np.int32),
+            "panels": np.array([p.name for p in model.pieces])}  # fmt: skip
+
+
+def load_reference(garment: str) -> dict:
+    """The reference of ``garment``: ``x`` its final positions (n, 3) [m], and where stored
+    ``panel``, ``uv_m``, ``triangles`` and ``panels`` (:func:`_pattern_arrays`)."""
     with np.load(REFERENCE / f"{garment}.npz") as z:
-        return z["positions_01mm"].astype(np.float64) * QUANTUM_M
+        out = {k: z[k] for k in z.files if k != "positions_01mm"}
+        out["x"] = z["positions_01mm"].astype(np.float64) * QUANTUM_M
+    return out
+
+
+def reference_distance(scene, x: np.ndarray, ref: dict) -> np.ndarray | None:
+    """Each vertex's distance to the reference [m], (n,): vertex for vertex on the same
+    mesh, else to the reference's surface at the vertex's own pattern coordinates (its
+    panel's reference triangle holding them, by barycentric coordinates). None when
+    neither applies (an old reference of another mesh, or a panel it does not have)."""
+    from sandbox.garment.multilevel import barycentric_locate
+
+    xr = ref["x"]
+    if xr.shape == x.shape:
+        return np.linalg.norm(x - xr, axis=1)
+    if "uv_m" not in ref:
+        return None
+    mine = _pattern_arrays(scene)
+    names = [str(n) for n in ref["panels"]]
+    tris = ref["triangles"]
+    tri_panel = ref["panel"][tris[:, 0]]
+    d = np.empty(len(x))
+    for k, name in enumerate(str(n) for n in mine["panels"]):
+        if name not in names:
+            return None
+        ours = mine["panel"] == k
+        own = tris[tri_panel == names.index(name)]
+        t, w = barycentric_locate(mine["uv_m"][ours], ref["uv_m"], own)
+        at = np.einsum("pk,pkd->pd", w, xr[own[t]])
+        d[ours] = np.linalg.norm(x[ours] - at, axis=1)
+    return d
 
 
 def parse_overrides(items: list[str]) -> dict:
@@ -144,8 +192,7 @@ def compare(garments: list[str], method: str, overrides: dict | None = None) -> 
         row = {"garment": g, **_summary(r.metrics, x, wall)}
         ref = ref_index.get(g)
         if ref is not None:
-            xr = load_reference(g)
-            d = np.linalg.norm(x - xr, axis=1) if xr.shape == x.shape else None
+            d = reference_distance(r.scene, x, load_reference(g))
             row["ref_total_s"] = ref["total_s"]
             for k in ("ease_bust_cm", "ease_waist_cm", "ease_hip_cm"):
                 a, b = row.get(k), ref.get(k)

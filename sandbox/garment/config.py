@@ -178,6 +178,13 @@ class DrapeConfig:
     on the carried shape (:mod:`sandbox.sim.stability`: power iteration on the stiffness),
     not from the bound on the rest shape; at most twice the bound's step, with the guard
     as the safety net."""
+    fine_inertia_scale: float = 4.0
+    """``coarse_to_fine``, explicit: the fine level runs with its inertia s times its mass and
+    its gravity and damping γ divided by s (:func:`sandbox.garment.multilevel.scaled_inertia`):
+    the weight m g and the drag γ m are unchanged, so are the rest shape and, while the
+    motion is overdamped, the path; the stable explicit step grows by √s. 1 switches it off.
+    At s = 4, γ = 15 /s still exceeds twice the slowest swinging mode (about 5 rad/s once the
+    inertia is scaled)."""
     fine_residual_mean: float = 0.25
     """``coarse_to_fine``: the fine level stops only where the mean equilibrium residual
     (:mod:`sandbox.sim.residual`: net force over weight per free vertex) is below this too,
@@ -263,6 +270,9 @@ class DrapeConfig:
                            fine_min_time_s=self.fine_min_time_s,
                            fine_damping_per_s=self.fine_damping_per_s)  # fmt: skip
         _check_positive("DrapeConfig", fine_residual_mean=self.fine_residual_mean)
+        if not self.fine_inertia_scale >= 1.0:
+            raise SandboxError(f"DrapeConfig.fine_inertia_scale must be at least 1, got "
+                               f"{self.fine_inertia_scale}")  # fmt: skip
 
     @property
     def implicit(self) -> bool:

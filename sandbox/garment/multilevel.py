@@ -16,7 +16,9 @@ drape) -> ``build_drape`` at the requested edge -> :func:`transfer_positions` ->
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import math
 import time
 
 import numpy as np
@@ -56,6 +58,39 @@ def barycentric_locate(points: np.ndarray, uv: np.ndarray, triangles: np.ndarray
     bary = np.clip(bary, 0.0, None)
     bary /= bary.sum(axis=1, keepdims=True)
     return tri, bary
+
+
+@contextlib.contextmanager
+def scaled_inertia(scene, factor: float):
+    """Run ``scene`` with its inertia ``factor`` (s) times its mass, its weight and its drag
+    unchanged: particle masses x s, gravity and the damping γ / s, restored on exit.
+
+    Eq. 2 with inertia s m, weight m g and drag γ m reads v' = (F/m + g)/s − (γ/s) v: the
+    rest shape (F + m g = 0, the contact and friction bounds, all relative to the weight) is
+    the same, and so is an overdamped path (velocity F/(γ m)), while the fastest mode slows
+    to ω_max/√s and the stable explicit step grows by √s. Mass scaling, the quasi-static
+    device of explicit finite-element codes; the equilibrium residual, measured in units of
+    the weight, is unchanged by it.
+    """
+    if factor == 1.0:
+        yield
+        return
+    model, control = scene.model, scene.control
+    mass = model.particle_mass.to_numpy()
+    inv_mass = model.particle_inv_mass.to_numpy()
+    gravity = control.gravity[None].to_numpy()
+    gamma = float(control.damping_per_s[None])
+    model.particle_mass.from_numpy(mass * factor)
+    model.particle_inv_mass.from_numpy(inv_mass / factor)
+    control.gravity[None] = gravity / factor
+    control.damping_per_s[None] = gamma / factor
+    try:
+        yield
+    finally:
+        model.particle_mass.from_numpy(mass)
+        model.particle_inv_mass.from_numpy(inv_mass)
+        control.gravity[None] = gravity
+        control.damping_per_s[None] = gamma
 
 
 def panel_maps(coarse_meshes: dict, fine_meshes: dict) -> dict:
@@ -110,8 +145,6 @@ def drape_coarse_to_fine(pattern, mannequin, *, fabric=None, edge_length_m: floa
     is ``(None, coarse RunResult, coarse wall time [s])``: the caller drapes directly.
     """
     from sandbox.garment.pipeline import run_drape
-    from sandbox.garment.repair import settle_repaired, untangle_state
-    from sandbox.scene.run import run_scene
 
     t0 = time.perf_counter()
     coarse_config = dataclasses.replace(
@@ -149,27 +182,19 @@ def drape_coarse_to_fine(pattern, mannequin, *, fabric=None, edge_length_m: floa
     x, pushed = fine.garment.placement_body.push_out(x, config.thickness_m)
     fine.state.set(x, np.zeros_like(x))
     dt_bound = fine.dt_s
-    if config.fine_measured_dt and fine.spec.simulation.integrator == "symplectic_euler":
-        # the fine level starts next to rest, where the bound is ~1.4x too cautious
-        retime(fine, measured_stable_dt(fine.solver, fine.state, fine.control, fine.model))
-    build_s = time.perf_counter() - t1
-    repairs = [untangle_state(fine, "after the coarse drape", config.repair)]
-    collider = fine.solver.self_collider
-    if collider is not None and fine.model.seam_count:
-        # the seams arrive closed: the panels beside them are kept apart at once
-        collider.set_seam_partners(fine.model.seam_pairs_np, neighbours=False)
-    stop = fine.spec.stop
-    fine.spec = dataclasses.replace(
-        fine.spec,
-        stop=dataclasses.replace(
-            stop, min_time_s=config.fine_min_time_s, residual_mean=config.fine_residual_mean
-        ),
-    )
-    try:
-        result = run_scene(fine, progress=progress)
-        result = settle_repaired(fine, result, repairs, config.repair, progress=progress)
-    finally:
-        fine.spec = dataclasses.replace(fine.spec, stop=stop)
+    explicit = fine.spec.simulation.integrator == "symplectic_euler"
+    inertia = config.fine_inertia_scale if explicit else 1.0
+    with scaled_inertia(fine, inertia):
+        if config.fine_measured_dt and explicit:
+            # the fine level starts next to rest, where the bound is ~1.4x too cautious
+            retime(fine, measured_stable_dt(fine.solver, fine.state, fine.control, fine.model),
+                   at_most=2.0 * math.sqrt(inertia))  # fmt: skip
+        elif inertia != 1.0:
+            retime(fine, fine.dt_limit_s * math.sqrt(inertia), at_most=math.sqrt(inertia))
+        build_s = time.perf_counter() - t1
+        result, repairs = _settle_fine(fine, config, progress)
+    if inertia != 1.0:  # the step of the garment's own inertia, for whatever runs it next
+        retime(fine, fine.dt_limit_s / math.sqrt(inertia), at_most=1.0)
     m = result.metrics
     coarse_wall = coarse_build_s + cm["total_wall_time_s"]
     m.update({k: cm[k] for k in cm if k.startswith("sew_")})
@@ -188,9 +213,36 @@ def drape_coarse_to_fine(pattern, mannequin, *, fabric=None, edge_length_m: floa
         fine_wall_time_s=m["wall_time_s"],
         fine_steps=m["steps"],
         fine_dt_bound_s=dt_bound,
+        fine_inertia_scale=inertia,
         untangle=repairs,
         untangled_pairs=sum(r["pairs_before"] - r["pairs_after"] for r in repairs),
         strain_damping_s=float(fine.model.strain_damping_s[None]),
         total_wall_time_s=coarse_wall + build_s + m["wall_time_s"],
     )
     return fine, result, coarse_build_s + build_s
+
+
+def _settle_fine(fine, config, progress):
+    """The fine level from the carried shape: untangled, run to the stop rule (with the
+    residual's and from ``fine_min_time_s``), repaired. Returns ``(RunResult, repairs)``."""
+    from sandbox.garment.repair import settle_repaired, untangle_state
+    from sandbox.scene.run import run_scene
+
+    repairs = [untangle_state(fine, "after the coarse drape", config.repair)]
+    collider = fine.solver.self_collider
+    if collider is not None and fine.model.seam_count:
+        # the seams arrive closed: the panels beside them are kept apart at once
+        collider.set_seam_partners(fine.model.seam_pairs_np, neighbours=False)
+    stop = fine.spec.stop
+    fine.spec = dataclasses.replace(
+        fine.spec,
+        stop=dataclasses.replace(
+            stop, min_time_s=config.fine_min_time_s, residual_mean=config.fine_residual_mean
+        ),
+    )
+    try:
+        result = run_scene(fine, progress=progress)
+        result = settle_repaired(fine, result, repairs, config.repair, progress=progress)
+    finally:
+        fine.spec = dataclasses.replace(fine.spec, stop=stop)
+    return result, repairs

@@ -31,7 +31,7 @@ def measured_stable_dt(solver, state, control, model, *, iterations: int = POWER
     x0 = state.positions().astype(np.float64)
     v0 = state.velocities()
     n = len(x0)
-    mass = model.mass_np.astype(np.float64)[:n]
+    mass = model.particle_mass.to_numpy().astype(np.float64)[:n]  # the inertia the solver uses
     free = ~model.pinned_np[:n]
     if not free.any():
         return math.inf
