@@ -8,7 +8,7 @@ import pytest
 
 from sandbox.errors import SandboxError
 from sandbox.garment import DrapeConfig
-from sandbox.garment.multilevel import barycentric_locate, carry, panel_maps
+from sandbox.garment.multilevel import barycentric_locate, carry, panel_maps, scaled_inertia
 
 
 def grid(n: int, size: float = 0.3):
@@ -61,10 +61,58 @@ def test_an_affine_drape_is_carried_exactly():
     ({"fine_damping_per_s": -1.0}, "fine_damping_per_s"),
     ({"fine_residual_mean": 0.0}, "fine_residual_mean"),
     ({"seam_damping_ratio": 1.5}, "seam_damping_ratio"),
+    ({"fine_inertia_scale": 0.5}, "fine_inertia_scale"),
 ])  # fmt: skip
 def test_bad_settings_are_named(change, needle):
     with pytest.raises(SandboxError, match=needle):
         DrapeConfig(**change)
+
+
+def _hanging_sheet(damping_per_s: float):
+    from sandbox.scene.build import build_scene
+    from tests.helpers import sheet_spec
+
+    return build_scene(sheet_spec(simulation={"damping_per_s": damping_per_s}))
+
+
+def test_scaled_inertia_keeps_the_forces_and_lengthens_the_stable_step():
+    """Inertia x 4 with gravity and damping / 4: the same static forces (F + m g) at any
+    shape, a stable step twice as long (ω_max halves), everything restored on exit."""
+    from sandbox.sim.stability import measured_stable_dt
+
+    sc = _hanging_sheet(60.0)
+    f0 = sc.solver.static_forces(sc.state.x, sc.control.gravity)
+    dt0 = measured_stable_dt(sc.solver, sc.state, sc.control, sc.model)
+    mass0 = sc.model.particle_mass.to_numpy()
+    with scaled_inertia(sc, 4.0):
+        f4 = sc.solver.static_forces(sc.state.x, sc.control.gravity)
+        dt4 = measured_stable_dt(sc.solver, sc.state, sc.control, sc.model)
+        assert sc.control.damping_per_s[None] == pytest.approx(15.0)
+        np.testing.assert_allclose(sc.model.particle_mass.to_numpy(), 4.0 * mass0)
+    np.testing.assert_allclose(f4, f0, rtol=1e-12, atol=1e-15)
+    assert dt4 / dt0 == pytest.approx(2.0, rel=1e-6)
+    np.testing.assert_array_equal(sc.model.particle_mass.to_numpy(), mass0)
+    assert sc.control.damping_per_s[None] == 60.0
+    assert sc.control.gravity[None][1] == pytest.approx(-9.80665)
+
+
+def test_an_overdamped_sheet_settles_to_the_same_shape_with_scaled_inertia():
+    """A pinned sheet damped at 60 /s (it swings down over about γ L / g = 1.2 s), run 8 s
+    with its own inertia and with inertia x 4 at twice the step: the same rest shape to
+    0.1 mm, in half the steps."""
+    from sandbox.scene.build import retime
+
+    shapes, steps = [], []
+    for s in (1.0, 4.0):
+        sc = _hanging_sheet(60.0)
+        with scaled_inertia(sc, s):
+            retime(sc, sc.dt_limit_s * s**0.5, at_most=s**0.5)
+            n = round(8.0 / sc.dt_s)
+            sc.solver.advance(sc.state, sc.control, sc.dt_s, n)
+        shapes.append(sc.state.positions().astype(np.float64))
+        steps.append(n)
+    assert steps[1] <= 0.51 * steps[0]
+    assert np.abs(shapes[1] - shapes[0]).max() < 1e-4
 
 
 @pytest.mark.slow

@@ -444,7 +444,8 @@ def _frame(session, r, sewing, sew_mode, dragging, shots, values, applied, size,
         gui.text(_step_line(session))
         gui.text(f"max {1e3 * st.max_displacement_m:7.2f} mm  mean "
                  f"{1e3 * st.mean_displacement_m:7.3f} mm")  # fmt: skip
-        gui.text("converged" if st.converged else "moving")
+        gui.text("refitting the body" if st.settling else
+                 "converged" if st.converged else "moving")  # fmt: skip
         gui.text(f"seams {len(session.seams)}  springs {session.model.seam_count}")
         gui.text(session.message[:60])
     changed = {k: v for k, v in values.items() if abs(v - applied[k]) > 0.05}

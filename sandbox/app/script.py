@@ -207,7 +207,7 @@ def run_script(session, actions: list[dict], out_dir, *, size=(480, 480), source
                 st = session.stats
                 log.append({"run_frames": a["run_frames"], "sim_time_s": st.sim_time_s,
                             "max_displacement_m": st.max_displacement_m,
-                            "converged": st.converged})  # fmt: skip
+                            "converged": st.converged, "refit": session.last_refit})  # fmt: skip
             elif "fabric" in a:
                 session.set_fabric(a["fabric"])
                 r = Renderer(session, size, show_window=False)

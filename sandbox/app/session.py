@@ -43,6 +43,19 @@ falling or sliding crosses the body only for a moment and leaves the thickness a
 COVER_EVERY_FRAMES = 10
 """... checked every this many frames (20-45 ms a check at 3 and 1.5 cm,
 ``benchmarks/bench_gui.py``)."""
+SETTLE_DAMPING_PER_S = 60.0
+"""After a resize the cloth refits the new body overdamped, as a drape's fine level settles
+(``DrapeConfig.fine_damping_per_s``): it moves onto the body without swinging ..."""
+SETTLE_INERTIA = 4.0
+"""... with its inertia scaled by this (:func:`sandbox.garment.multilevel.scaled_inertia`:
+the same weight, drag and rest shape, the explicit step x2), until the paper's stop rule
+holds ..."""
+SETTLE_SHOWS_M = 1e-3
+"""... and no body vertex shows through it deeper than this [m] (the drape acceptance's
+``AcceptanceConfig.body_through_m``), ..."""
+SETTLE_MAX_FRAMES = 90
+"""... or for at most this many frames (3 s simulated); then the cloth has its own inertia
+and damping again."""
 PICK_RADIUS_PX = 18.0
 """A click farther than this from every boundary edge (on screen) sews nothing."""
 
@@ -60,6 +73,8 @@ class FrameStats:
     body_shows: int = 0
     """Body vertices that showed through the cloth at the frame's end (the contact then
     thickened there; 0 when the frame was not checked: the cloth was still moving)."""
+    settling: bool = False
+    """The cloth is refitting a resized body (overdamped, :data:`SETTLE_DAMPING_PER_S`)."""
 
 
 class Session:
@@ -125,6 +140,10 @@ class Session:
         self._inv_mass0 = self.model.particle_inv_mass.to_numpy()[: self.model.particle_count]
         self.edges = self._boundary_edges()
         self._gravity = tuple(self.scene.control.gravity[None])
+        self._settle = None  # while refitting a resized body: what to restore, and its frames
+        self.last_refit: dict | None = None
+        """The last refit after a resize: frames and wall time [s] until the stop rule held
+        (``at_rest``) or the frames ran out."""
         import open3d  # noqa: F401  the contact checks' ray caster: loaded here (1-2 s), not
         # in the window's first settled frame (COVER_EVERY_FRAMES)
 
@@ -353,6 +372,7 @@ class Session:
         self.state.set(x, np.zeros_like(x))
         self.collider.uncover()  # the old body's cover does not fit the new one
         self.collider.update(body.vertices)
+        self._start_settling()
         self.mannequin = body
         self.measurements = merged
         self.message = ", ".join(f"{k} {v:g} cm" for k, v in cm.items())
@@ -364,6 +384,53 @@ class Session:
         return self.resize(**cm).measure()
 
     # ------------------------------------------------------------------ simulation
+    def _start_settling(self) -> None:
+        """Refit mode after a resize: damping :data:`SETTLE_DAMPING_PER_S`, inertia x
+        :data:`SETTLE_INERTIA` and the step x its square root (the same frame), until the
+        stop rule holds (:meth:`_finish_frame`) or :data:`SETTLE_MAX_FRAMES` have run. A new
+        resize while settling starts the count again."""
+        from sandbox.garment.multilevel import scale_inertia
+
+        sc = self.scene
+        if self._settle is not None:
+            self._settle["frames"] = 0
+            self._settle["t0"] = time.perf_counter()
+            return
+        if sc.spec.simulation.integrator != "symplectic_euler" or not self.gravity:
+            return  # the sewing table (no gravity) has no rest to refit
+        self._finish_open_frame()
+        saved = {"frames": 0, "dt_s": sc.dt_s, "steps_per_frame": sc.steps_per_frame,
+                 "damping": float(sc.control.damping_per_s[None]),
+                 "t0": time.perf_counter()}  # fmt: skip
+        sc.control.damping_per_s[None] = SETTLE_DAMPING_PER_S
+        saved["inertia"] = scale_inertia(sc, SETTLE_INERTIA)
+        sc.steps_per_frame = max(1, math.ceil(sc.steps_per_frame / math.sqrt(SETTLE_INERTIA)))
+        sc.dt_s = saved["dt_s"] * saved["steps_per_frame"] / sc.steps_per_frame
+        self._settle = saved
+        self.stats.settling = True
+
+    def _stop_settling(self) -> None:
+        """Back to the cloth's own inertia, damping and step (after :meth:`_start_settling`)."""
+        if self._settle is None:
+            return
+        from sandbox.garment.multilevel import restore_inertia
+
+        sc, saved = self.scene, self._settle
+        self._finish_open_frame()
+        restore_inertia(sc, saved["inertia"])
+        sc.control.damping_per_s[None] = saved["damping"]
+        sc.dt_s, sc.steps_per_frame = saved["dt_s"], saved["steps_per_frame"]
+        self._settle = None
+        self.stats.settling = False
+        self.last_refit = {"frames": saved["frames"], "at_rest": self.stats.converged,
+                           "wall_s": time.perf_counter() - saved["t0"]}  # fmt: skip
+
+    def _finish_open_frame(self) -> None:
+        """Run the steps a frame the window's budget left open still needs, so that a frame
+        never mixes two step sizes."""
+        if self._frame_steps:
+            self.run_frames(1)
+
     def run_frames(self, frames: int = 1) -> FrameStats:
         """Simulate ``frames`` output frames (1/30 s each); returns the last frame's stats."""
         sc = self.scene
@@ -385,6 +452,7 @@ class Session:
 
     def set_gravity(self, on: bool) -> None:
         """Gravity on, or off (the sewing table: panels float while seams close)."""
+        self._stop_settling()
         self.gravity = bool(on)
         self.scene.control.gravity[None] = self._gravity if on else (0.0, 0.0, 0.0)
         self.message = f"gravity {'on' if on else 'off'}"
@@ -439,13 +507,24 @@ class Session:
                        and s.mean_displacement_m < stop.mean_displacement_m)  # fmt: skip
         s.wall_s = wall_s
         s.body_shows = 0
-        if (s.frame % COVER_EVERY_FRAMES == 0
+        checked = False
+        if self._settle is not None:
+            self._settle["frames"] += 1
+            if s.converged:  # at rest on the new body, unless it still shows through
+                s.body_shows = self.collider.cover(self.positions(), self.model.tri_indices_np)
+                checked = True
+                # else its contact just thickened there and the cloth moves on
+                s.converged = self.collider.cover_depth_m <= SETTLE_SHOWS_M
+            if s.converged or self._settle["frames"] >= SETTLE_MAX_FRAMES:
+                self._stop_settling()
+        if (not checked and s.frame % COVER_EVERY_FRAMES == 0
                 and s.max_displacement_m < COVER_BELOW_STOP * stop.max_displacement_m):  # fmt: skip
             # settling: where the body still shows through, the contact thickens there
             s.body_shows = self.collider.cover(self.positions(), self.model.tri_indices_np)
 
     def reset(self) -> None:
         """Panels back to their start positions (seams and body kept)."""
+        self._stop_settling()
         self.state.set(self.model.initial_positions_np)
         self.scene.solver.reset_watch()
         self.stats = FrameStats()
@@ -471,6 +550,7 @@ class Session:
         n = self.model.particle_count
         if not 0 <= int(vertex) < n:
             raise SandboxError(f"vertex {vertex} out of range 0..{n - 1}")
+        self._stop_settling()  # pins are written as inverse masses of the cloth's own inertia
         self.pinned[vertex] = pinned
         inv = np.where(self.pinned, 0.0, self._inv_mass0)
         self.model.particle_inv_mass.from_numpy(inv.astype(self._inv_mass0.dtype))

@@ -110,6 +110,7 @@ class BodyCollider:
         self.cloth_edge_m = 0.0
         self._adjacency = None  # the faces' edge adjacency, made once (crease_adjacency)
         self._crease_extra = None  # follow_cloth's thickness per body vertex, without cover
+        self.cover_depth_m = 0.0  # how deep the body showed through at the last cover [m]
         self.mu_s[None] = friction_static
         self.mu_k[None] = friction_kinetic
         # grid: cell size near the mean edge length, dims fixed from the first bounds
@@ -170,7 +171,8 @@ class BodyCollider:
         [m], ``cloth_triangles`` (k, 3)), by how far it shows plus a quarter of the
         thickness, over a cloth edge span around it
         (:func:`sandbox.collision.crease.cover_thickness`; needs :meth:`follow_cloth`).
-        Returns the number of body vertices that showed (0: nothing changed). The
+        Returns the number of body vertices that showed (0: nothing changed), and keeps the
+        deepest in ``cover_depth_m`` [m]. The
         thickness only grows and belongs to the body's vertices, as the crease thickness,
         until :meth:`uncover`; about 20-45 ms a call on the mannequin, a grid rebuild included
         when it grows (``benchmarks/bench_gui.py``)."""
@@ -182,6 +184,7 @@ class BodyCollider:
         v = self.body_x.to_numpy().astype(np.float64)
         depth = through_cloth_depth(cloth_x, cloth_triangles, v, self.triangles_np)
         shows = int(np.count_nonzero(depth > 0.0))
+        self.cover_depth_m = float(depth.max(initial=0.0))
         if shows:
             extra = cover_thickness(v, self.vert_extra.to_numpy().astype(np.float64), depth,
                                     self.cloth_edge_m, 0.25 * self.thickness[None])  # fmt: skip

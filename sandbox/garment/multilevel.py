@@ -72,25 +72,38 @@ def scaled_inertia(scene, factor: float):
     device of explicit finite-element codes; the equilibrium residual, measured in units of
     the weight, is unchanged by it.
     """
-    if factor == 1.0:
+    saved = scale_inertia(scene, factor)
+    try:
         yield
-        return
+    finally:
+        restore_inertia(scene, saved)
+
+
+def scale_inertia(scene, factor: float):
+    """:func:`scaled_inertia`'s entry: scales the scene and returns what
+    :func:`restore_inertia` puts back (None for a factor of 1, which changes nothing)."""
+    if factor == 1.0:
+        return None
     model, control = scene.model, scene.control
-    mass = model.particle_mass.to_numpy()
-    inv_mass = model.particle_inv_mass.to_numpy()
-    gravity = control.gravity[None].to_numpy()
-    gamma = float(control.damping_per_s[None])
+    saved = (model.particle_mass.to_numpy(), model.particle_inv_mass.to_numpy(),
+             control.gravity[None].to_numpy(), float(control.damping_per_s[None]))  # fmt: skip
+    mass, inv_mass, gravity, gamma = saved
     model.particle_mass.from_numpy(mass * factor)
     model.particle_inv_mass.from_numpy(inv_mass / factor)
     control.gravity[None] = gravity / factor
     control.damping_per_s[None] = gamma / factor
-    try:
-        yield
-    finally:
-        model.particle_mass.from_numpy(mass)
-        model.particle_inv_mass.from_numpy(inv_mass)
-        control.gravity[None] = gravity
-        control.damping_per_s[None] = gamma
+    return saved
+
+
+def restore_inertia(scene, saved) -> None:
+    """Undo :func:`scale_inertia` (``saved`` is what it returned)."""
+    if saved is None:
+        return
+    mass, inv_mass, gravity, gamma = saved
+    scene.model.particle_mass.from_numpy(mass)
+    scene.model.particle_inv_mass.from_numpy(inv_mass)
+    scene.control.gravity[None] = gravity
+    scene.control.damping_per_s[None] = gamma
 
 
 def panel_maps(coarse_meshes: dict, fine_meshes: dict) -> dict:
