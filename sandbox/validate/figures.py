@@ -102,7 +102,8 @@ def gallery_speed_figures(root: Path) -> list[Figure]:
     ]
     hem = [abs(r["hem_delta_cm"]) for r in rows if r.get("hem_delta_cm") is not None]
     meets = sum(bool(r.get("meets_acceptance")) for r in rows)
-    shape = (f"mean vertex distance median {statistics.median(dist):.2f} cm, largest "
+    over = "" if len(dist) == len(rows) else f" (over the {len(dist)} with a reference)"
+    shape = (f"mean vertex distance{over} median {statistics.median(dist):.2f} cm, largest "
              f"{max(dist):.2f} cm (95th percentile up to {max(p95):.2f} cm); ease within "
              f"{max(ease):.2f} cm, lowest point within {max(hem):.2f} cm; {meets} of "
              f"{len(rows)} meet the acceptance") if dist else "-"  # fmt: skip
