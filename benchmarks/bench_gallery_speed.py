@@ -214,7 +214,7 @@ def _ran(row: dict) -> str:
     return f"{ran} (coarse level not at rest)" if row.get("coarse_fallback") else ran
 
 
-def write_table(rows: list[dict], method: str, extra: str = "") -> str:
+def write_table(rows: list[dict], method: str, extra: str = "", load: str = "") -> str:
     totals = sorted(r["total_s"] for r in rows)
     median = (
         totals[len(totals) // 2]
@@ -226,7 +226,8 @@ def write_table(rows: list[dict], method: str, extra: str = "") -> str:
         "",
         f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python "
         f"{platform.python_version()}, {time.strftime('%Y-%m-%d')}. "
-        f"Command: `python benchmarks/bench_gallery_speed.py --method {method}{extra}`.",
+        f"Command: `python benchmarks/bench_gallery_speed.py --method {method}{extra}`."
+        + (f" Load: {load}" if load else ""),
         "",
         f"Median total {median:.1f} s, slowest {totals[-1]:.1f} s; "
         f"{sum(bool(r['meets_acceptance']) for r in rows)} of {len(rows)} meet the acceptance.",
@@ -277,6 +278,8 @@ def main() -> None:
     ap.add_argument("--tag", default=None, help="results file suffix (default: the method)")
     ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                     help="a DrapeConfig setting for this run (repeatable)")  # fmt: skip
+    ap.add_argument("--load", default="", help="what else the machine ran meanwhile, for the "
+                    "table's header (its times are then upper bounds)")  # fmt: skip
     args = ap.parse_args()
     overrides = parse_overrides(args.set)
     from sandbox import runtime
@@ -294,7 +297,7 @@ def main() -> None:
     if args.garments and old.exists():  # a rerun of some garments keeps the others' rows
         rows = merge_rows(json.loads(old.read_text()), rows, list(garment_names()))
     _write(RESULTS / f"gallery_speed_{tag}.json", json.dumps(rows, indent=1))
-    table = write_table(rows, args.method, "".join(f" --set {i}" for i in args.set))
+    table = write_table(rows, args.method, "".join(f" --set {i}" for i in args.set), args.load)
     _write(RESULTS / f"gallery_speed_{tag}.md", table)
     sys.stdout.write(table)
 
