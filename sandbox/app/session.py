@@ -398,14 +398,13 @@ class Session:
             return
         if sc.spec.simulation.integrator != "symplectic_euler" or not self.gravity:
             return  # the sewing table (no gravity) has no rest to refit
-        self._finish_open_frame()
         saved = {"frames": 0, "dt_s": sc.dt_s, "steps_per_frame": sc.steps_per_frame,
                  "damping": float(sc.control.damping_per_s[None]),
                  "t0": time.perf_counter()}  # fmt: skip
         sc.control.damping_per_s[None] = SETTLE_DAMPING_PER_S
         saved["inertia"] = scale_inertia(sc, SETTLE_INERTIA)
-        sc.steps_per_frame = max(1, math.ceil(sc.steps_per_frame / math.sqrt(SETTLE_INERTIA)))
-        sc.dt_s = saved["dt_s"] * saved["steps_per_frame"] / sc.steps_per_frame
+        steps = max(1, math.ceil(sc.steps_per_frame / math.sqrt(SETTLE_INERTIA)))
+        self._set_step(saved["dt_s"] * saved["steps_per_frame"] / steps, steps)
         self._settle = saved
         self.stats.settling = True
 
@@ -416,20 +415,24 @@ class Session:
         from sandbox.garment.multilevel import restore_inertia
 
         sc, saved = self.scene, self._settle
-        self._finish_open_frame()
         restore_inertia(sc, saved["inertia"])
         sc.control.damping_per_s[None] = saved["damping"]
-        sc.dt_s, sc.steps_per_frame = saved["dt_s"], saved["steps_per_frame"]
+        self._set_step(saved["dt_s"], saved["steps_per_frame"])
         self._settle = None
         self.stats.settling = False
         self.last_refit = {"frames": saved["frames"], "at_rest": self.stats.converged,
                            "wall_s": time.perf_counter() - saved["t0"]}  # fmt: skip
 
-    def _finish_open_frame(self) -> None:
-        """Run the steps a frame the window's budget left open still needs, so that a frame
-        never mixes two step sizes."""
+    def _set_step(self, dt_s: float, steps_per_frame: int) -> None:
+        """Steps of ``dt_s`` [s], ``steps_per_frame`` a frame; a frame the window's budget
+        left open keeps the part of it already run (its steps rescaled), so a slider move
+        never waits for the rest of a frame."""
+        sc = self.scene
         if self._frame_steps:
-            self.run_frames(1)
+            done = self._frame_steps / sc.steps_per_frame
+            self._frame_steps = min(steps_per_frame - 1, round(done * steps_per_frame))
+        sc.steps_per_frame = steps_per_frame
+        sc.dt_s = dt_s
 
     def run_frames(self, frames: int = 1) -> FrameStats:
         """Simulate ``frames`` output frames (1/30 s each); returns the last frame's stats."""
