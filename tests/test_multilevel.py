@@ -8,7 +8,8 @@ import pytest
 
 from sandbox.errors import SandboxError
 from sandbox.garment import DrapeConfig
-from sandbox.garment.multilevel import barycentric_locate, carry, panel_maps, scaled_inertia
+from sandbox.garment.multilevel import barycentric_locate, carry, panel_maps
+from sandbox.sim.inertia import scaled_inertia
 
 
 def grid(n: int, size: float = 0.3):

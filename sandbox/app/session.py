@@ -47,7 +47,7 @@ SETTLE_DAMPING_PER_S = 60.0
 """After a resize the cloth refits the new body overdamped, as a drape's fine level settles
 (``DrapeConfig.fine_damping_per_s``): it moves onto the body without swinging ..."""
 SETTLE_INERTIA = 4.0
-"""... with its inertia scaled by this (:func:`sandbox.garment.multilevel.scaled_inertia`:
+"""... with its inertia scaled by this (:func:`sandbox.sim.inertia.scaled_inertia`:
 the same weight, drag and rest shape, the explicit step x2), until the paper's stop rule
 holds ..."""
 SETTLE_SHOWS_M = 1e-3
@@ -389,7 +389,7 @@ class Session:
         :data:`SETTLE_INERTIA` and the step x its square root (the same frame), until the
         stop rule holds (:meth:`_finish_frame`) or :data:`SETTLE_MAX_FRAMES` have run. A new
         resize while settling starts the count again."""
-        from sandbox.garment.multilevel import scale_inertia
+        from sandbox.sim.inertia import scale_inertia
 
         sc = self.scene
         if self._settle is not None:
@@ -412,7 +412,7 @@ class Session:
         """Back to the cloth's own inertia, damping and step (after :meth:`_start_settling`)."""
         if self._settle is None:
             return
-        from sandbox.garment.multilevel import restore_inertia
+        from sandbox.sim.inertia import restore_inertia
 
         sc, saved = self.scene, self._settle
         restore_inertia(sc, saved["inertia"])

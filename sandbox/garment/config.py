@@ -180,7 +180,7 @@ class DrapeConfig:
     as the safety net."""
     fine_inertia_scale: float = 4.0
     """``coarse_to_fine``, explicit: the fine level runs with its inertia s times its mass and
-    its gravity and damping γ divided by s (:func:`sandbox.garment.multilevel.scaled_inertia`):
+    its gravity and damping γ divided by s (:func:`sandbox.sim.inertia.scaled_inertia`):
     the weight m g and the drag γ m are unchanged, so are the rest shape and, while the
     motion is overdamped, the path; the stable explicit step grows by √s. 1 switches it off.
     At s = 4, γ = 15 /s still exceeds twice the slowest swinging mode (about 5 rad/s once the
