@@ -473,7 +473,7 @@ def test_seam_side_chains_consecutive_edges():
 
 def test_garmentcode_units_placement_and_curves():
     spec = json.loads(GC_SKIRT.read_text())
-    p = load_garmentcode(GC_SKIRT)
+    p = load_garmentcode(GC_SKIRT, placement="explicit")
     assert p.units_to_m == 0.01 and p.meta["units_in_meter"] == 1000
     assert list(p.panels) == ["back", "front", "band"]  # panel_order
     mm = 1e-3
@@ -520,7 +520,7 @@ def test_garmentcode_units_placement_and_curves():
 
 def test_garmentcode_mirrored_panel_keeps_world_shape_of_curves():
     spec = json.loads(GC_SKIRT.read_text())
-    p = load_garmentcode(GC_SKIRT)
+    p = load_garmentcode(GC_SKIRT, placement="explicit")
     back, g = p.panels["back"], spec["pattern"]["panels"]["back"]
     # the cubic edge 1 -> 2 sampled in our (mirrored) frame and placed in the world equals
     # GarmentCode's cubic placed with its own frame
@@ -584,11 +584,18 @@ def test_garmentcode_absolute_curvature_large_arc_and_centring():
 
 def test_garmentcode_cli_and_errors(tmp_path, capsys):
     out = tmp_path / "skirt.json"
-    assert main([str(GC_SKIRT), str(out)]) == 0
+    assert main([str(GC_SKIRT), str(out), "--placement", "explicit"]) == 0
     printed = capsys.readouterr().out
     assert "3 panels, 3 seams" in printed and "units_in_meter = 1000" in printed
     q = load_pattern(out)
     assert q.panels["front"].placement["translation"] == [-30.0, 100.0, 15.0]
+    assert main([str(GC_SKIRT), str(out)]) == 0
+    assert "placed on the body's landmarks" in capsys.readouterr().out
+    q = load_pattern(out)
+    assert q.panels["front"].placement["landmark"] == "waist_front"
+    assert q.panels["front"].meta["garmentcode_placement"]["translation"] == [-30.0, 100.0, 15.0]
+    with pytest.raises(SandboxError, match=r"gc.json: placement 'flat': use one of body, explicit"):
+        garmentcode_to_dict(json.loads(GC_SKIRT.read_text()), where="gc.json", placement="flat")
     bad = copy.deepcopy(json.loads(GC_SKIRT.read_text()))
     bad["pattern"]["panels"]["front"]["edges"][1]["curvature"] = {"type": "spiral", "params": []}
     with pytest.raises(SandboxError, match=r"panel 'front': edge #1: unknown curvature type"):
@@ -748,7 +755,7 @@ def test_garmentcode_seams_join_matching_points():
     from sandbox.sim.builder import ModelBuilder
     from sandbox.sim.materials import material_from_spec
 
-    p = load_garmentcode(GC_SKIRT)
+    p = load_garmentcode(GC_SKIRT, placement="explicit")
     p.seams = p.seams[:2]  # the two side seams (the third is a deliberate test flag)
     meshes = mesh_pattern(p, 0.04)
     b = ModelBuilder()

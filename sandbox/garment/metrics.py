@@ -47,7 +47,8 @@ def drape_metrics(scene, result, *, build_s: float = 0.0) -> dict:
     m.update(fold_metrics(model.initial_positions_np, result.positions, model.tri_indices_np,
                           g.placement_body, acceptance))  # fmt: skip
     m["hem_nodes"] = hem_nodes(g, model, result.positions)
-    m["meets_acceptance"] = meets_acceptance(m, acceptance)
+    m["acceptance_failures"] = acceptance_failures(m, acceptance)
+    m["meets_acceptance"] = not m["acceptance_failures"]
     return m
 
 
@@ -224,18 +225,32 @@ def meets_acceptance(m: dict, acceptance: AcceptanceConfig | None = None) -> boo
     showing through the cloth by no more than its limit, no intersecting cloth triangle
     pairs, not slid off (:func:`hang_metrics`), not rolled up (:func:`fold_metrics`), no
     NaN."""
+    return not acceptance_failures(m, acceptance)
+
+
+def acceptance_failures(m: dict, acceptance: AcceptanceConfig | None = None) -> list[str]:
+    """The checks of :func:`meets_acceptance` that one drape's metrics miss, in words (e.g.
+    ``"seam gap 6.2 mm"``); empty when it meets the acceptance."""
     a = acceptance or AcceptanceConfig()
     gap = m.get("seam_gap_max_m")
     depth = m.get("penetration_max_m")
     through = m.get("body_through_cloth_max_m")
-    return bool(
-        m.get("converged")
-        and (gap is None or gap <= a.seam_gap_m)
-        and depth is not None
-        and depth <= a.penetration_m
-        and (through is None or through <= a.body_through_m)
-        and m.get("intersecting_triangle_pairs") == 0
-        and not m.get("slid_off", False)
-        and not m.get("rolled_up", False)
-        and m.get("nan_positions", 0) == 0
-    )
+    pairs = m.get("intersecting_triangle_pairs")
+    failed = []
+    if not m.get("converged"):
+        failed.append("not at rest")
+    if gap is not None and gap > a.seam_gap_m:
+        failed.append(f"seam gap {gap * 1e3:.1f} mm")
+    if depth is None or depth > a.penetration_m:
+        failed.append("inside the body" + ("" if depth is None else f" {depth * 1e3:.1f} mm"))
+    if through is not None and through > a.body_through_m:
+        failed.append(f"body through {through * 1e3:.1f} mm")
+    if pairs != 0:
+        failed.append(f"{pairs} crossing pairs")
+    if m.get("slid_off", False):
+        failed.append("slid off")
+    if m.get("rolled_up", False):
+        failed.append("rolled up")
+    if m.get("nan_positions", 0) != 0:
+        failed.append("NaN positions")
+    return failed

@@ -38,6 +38,7 @@ import numpy as np
 
 from sandbox.errors import SandboxError
 from sandbox.pattern.curves import sample_curve
+from sandbox.pattern.garmentcode_place import MEAN_ALL, GarmentCodeLevels, body_placements
 from sandbox.pattern.mesh2d import polygon_area
 from sandbox.pattern.spec import (
     DEFAULT_FABRIC,
@@ -49,13 +50,17 @@ from sandbox.pattern.spec import (
 )
 
 MIRROR = np.diag([-1.0, 1.0, -1.0])
+#: how imported panels are placed: on the body's landmarks, or where GarmentCode put them
+PLACEMENTS = ("body", "explicit")
 
 
-def load_garmentcode(path: str | Path, *, fabric: str | dict = DEFAULT_FABRIC) -> Pattern:
-    """Read a GarmentCode specification JSON as a :class:`~sandbox.pattern.spec.Pattern`."""
+def load_garmentcode(path: str | Path, *, fabric: str | dict = DEFAULT_FABRIC,
+                     placement: str = "body", levels: GarmentCodeLevels = MEAN_ALL) -> Pattern:
+    """Read a GarmentCode specification JSON as a :class:`~sandbox.pattern.spec.Pattern`
+    (``placement``, ``levels``: as :func:`garmentcode_to_dict`)."""
     path = Path(path)
     data = garmentcode_to_dict(_read_json(path), where=str(path), name=_name_from_path(path),
-                               fabric=fabric)  # fmt: skip
+                               fabric=fabric, placement=placement, levels=levels)  # fmt: skip
     return load_pattern(data, where=f"{path} (converted from GarmentCode)")
 
 
@@ -160,9 +165,20 @@ def _curve(edge: dict, p0, p1, absolute: bool, to_cm: float, at: str) -> dict | 
 
 def garmentcode_to_dict(
     spec: dict, *, where: str = "<garmentcode>", name: str = "garmentcode",
-    fabric: str | dict = DEFAULT_FABRIC,
+    fabric: str | dict = DEFAULT_FABRIC, placement: str = "body",
+    levels: GarmentCodeLevels = MEAN_ALL,
 ) -> dict:  # fmt: skip
-    """Convert a parsed GarmentCode specification to a ``sandbox-pattern/1`` dict (in cm)."""
+    """Convert a parsed GarmentCode specification to a ``sandbox-pattern/1`` dict (in cm).
+
+    ``placement``: ``"body"`` (default) places each panel by the landmarks of the body part
+    and side GarmentCode laid it out on, at the same body level
+    (:mod:`sandbox.pattern.garmentcode_place`, with GarmentCode's body ``levels``); its own
+    translation and rotation are kept in the panel's ``meta.garmentcode_placement``.
+    ``"explicit"`` keeps GarmentCode's translation and rotation as the placement.
+    """
+    if placement not in PLACEMENTS:
+        raise SandboxError(f"{where}: placement {placement!r}: use one of "
+                           + ", ".join(PLACEMENTS))  # fmt: skip
     if not isinstance(spec, dict) or not isinstance(spec.get("pattern"), dict):
         raise SandboxError(f"{where}: not a GarmentCode specification (no 'pattern' object)")
     pat = spec["pattern"]
@@ -215,7 +231,18 @@ def garmentcode_to_dict(
         flags = [x for x in st[2:] if isinstance(x, str)]
         direction = "same" if "right_wrong" in flags else "reverse"
         seams.append({"a": sides[0], "b": sides[1], "direction": direction})
-    meta = {"imported_from": "GarmentCode", "units_in_meter": units_in_meter}
+    meta = {"imported_from": "GarmentCode", "units_in_meter": units_in_meter,
+            "placement": placement}
+    if placement == "body":
+        kept = []
+        for pname, landmark in body_placements(panels, levels).items():
+            if landmark is None:
+                kept.append(pname)
+                continue
+            panels[pname]["meta"]["garmentcode_placement"] = panels[pname]["placement"]
+            panels[pname]["placement"] = landmark
+        if kept:
+            meta["garmentcode_placement_kept"] = kept
     if spec.get("parameters"):
         meta["garmentcode_parameters"] = spec["parameters"]
     return {
@@ -325,12 +352,22 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("input", help="GarmentCode *_specification.json")
     ap.add_argument("output", help="sandbox pattern JSON to write")
     ap.add_argument("--fabric", default=DEFAULT_FABRIC, help="fabric preset (default: cotton)")
+    ap.add_argument("--placement", choices=PLACEMENTS, default="body",
+                    help="body (default): each panel on the landmarks of the body part and "
+                    "side GarmentCode laid it out on, wrapped round the mannequin like the "
+                    "library's; explicit: GarmentCode's own translation and rotation")
+    ap.add_argument("--body", type=Path, default=None, metavar="YAML",
+                    help="the GarmentCode body file the design was drafted on, for its "
+                    "levels (default: GarmentCode's mean_all)")  # fmt: skip
     args = ap.parse_args(argv)
     try:
+        from sandbox.pattern.garmentcode_body import load_garmentcode_levels
         from sandbox.preflight import check_output_file
 
         check_output_file(args.output, "OUTPUT")
-        pattern = load_garmentcode(args.input, fabric=args.fabric)
+        levels = MEAN_ALL if args.body is None else load_garmentcode_levels(args.body)
+        pattern = load_garmentcode(args.input, fabric=args.fabric, placement=args.placement,
+                                   levels=levels)  # fmt: skip
         out = save_pattern(pattern, args.output)
     except SandboxError as exc:
         print(f"error: {exc}", file=sys.stderr)
@@ -341,6 +378,10 @@ def main(argv: list[str] | None = None) -> int:
         f"units cm (from units_in_meter = {pattern.meta.get('units_in_meter')})"
         + (f"; mirrored (clockwise in GarmentCode): {', '.join(mirrored)}" if mirrored else "")
     )
+    kept = pattern.meta.get("garmentcode_placement_kept")
+    if args.placement == "body":
+        print("placed on the body's landmarks"
+              + (f"; GarmentCode's placement kept for {', '.join(kept)} (legs)" if kept else ""))
     return 0
 
 

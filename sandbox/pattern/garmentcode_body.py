@@ -76,33 +76,13 @@ def load_garmentcode_body(path: str | Path) -> GarmentCodeBody:
     Raises SandboxError naming the file and the key for a missing file, bad YAML, a
     missing or non-numeric measurement, or one far outside the supported range.
     """
-    import yaml
-
     from sandbox.mannequin.measurements import KEYS, SUPPORTED_RANGE_CM, load_size_table
 
     p = Path(path)
-    try:
-        if p.stat().st_size > MAX_FILE_BYTES:
-            raise SandboxError(f"{p}: larger than {MAX_FILE_BYTES} bytes; not a body file")
-        data = yaml.safe_load(p.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise SandboxError(f"{p}: no such body file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SandboxError(f"{p}: cannot read the body file ({exc})") from None
-    except yaml.YAMLError as exc:
-        raise SandboxError(f"{p}: not valid YAML ({str(exc).splitlines()[0]})") from None
-    body = data.get("body") if isinstance(data, dict) else None
-    if not isinstance(body, dict):
-        raise SandboxError(f"{p}: a GarmentCode body file has a 'body:' mapping of "
-                           "measurements in cm")  # fmt: skip
+    body = _read_body(p)
 
     def number(key: str) -> float:
-        if key not in body:
-            raise SandboxError(f"{p}: body.{key}: missing (needed for the mannequin)")
-        v = body[key]
-        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
-            raise SandboxError(f"{p}: body.{key}: must be a finite number of cm, got {v!r}")
-        return float(v)
+        return _number(p, body, key)
 
     notes = []
     ours = {}
@@ -139,3 +119,49 @@ def load_garmentcode_body(path: str | Path) -> GarmentCodeBody:
         notes.append("no counterpart (the database size's proportions stand in): "
                      + ", ".join(rest))  # fmt: skip
     return GarmentCodeBody(str(p), {k: ours[k] for k in KEYS}, nearest.size, tuple(notes))
+
+
+def load_garmentcode_levels(path: str | Path):
+    """The levels of a GarmentCode body file that place an imported design's panels
+    (:class:`sandbox.pattern.garmentcode_place.GarmentCodeLevels`); errors as
+    :func:`load_garmentcode_body`'s."""
+    from sandbox.pattern.garmentcode_place import GarmentCodeLevels
+
+    p = Path(path)
+    body = _read_body(p)
+    keys = ("height", "head_l", "waist_line", "hips_line", "shoulder_w")
+    values = {k: _number(p, body, k, "needed to place the panels") for k in keys}
+    for k in ("crotch_hip_diff", "arm_pose_angle"):
+        if k in body:
+            values[k] = _number(p, body, k)
+    return GarmentCodeLevels.from_body(values)
+
+
+def _read_body(p: Path) -> dict:
+    """The ``body:`` mapping of a GarmentCode body YAML file."""
+    import yaml
+
+    try:
+        if p.stat().st_size > MAX_FILE_BYTES:
+            raise SandboxError(f"{p}: larger than {MAX_FILE_BYTES} bytes; not a body file")
+        data = yaml.safe_load(p.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise SandboxError(f"{p}: no such body file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SandboxError(f"{p}: cannot read the body file ({exc})") from None
+    except yaml.YAMLError as exc:
+        raise SandboxError(f"{p}: not valid YAML ({str(exc).splitlines()[0]})") from None
+    body = data.get("body") if isinstance(data, dict) else None
+    if not isinstance(body, dict):
+        raise SandboxError(f"{p}: a GarmentCode body file has a 'body:' mapping of "
+                           "measurements in cm")  # fmt: skip
+    return body
+
+
+def _number(p: Path, body: dict, key: str, why: str = "needed for the mannequin") -> float:
+    if key not in body:
+        raise SandboxError(f"{p}: body.{key}: missing ({why})")
+    v = body[key]
+    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+        raise SandboxError(f"{p}: body.{key}: must be a finite number of cm, got {v!r}")
+    return float(v)

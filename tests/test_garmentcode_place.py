@@ -1,0 +1,98 @@
+"""GarmentCode imports placed on the body's landmarks (sandbox.pattern.garmentcode_place)."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sandbox.pattern.garmentcode import load_garmentcode
+from sandbox.pattern.garmentcode_body import load_garmentcode_levels
+from sandbox.pattern.garmentcode_place import MEAN_ALL
+from sandbox.pattern.spec import rotation_matrix_xyz_deg
+
+GC = Path(__file__).parent / "data" / "garmentcode"
+
+
+def _both(name: str):
+    spec = GC / f"{name}_specification.json"
+    return load_garmentcode(spec), load_garmentcode(spec, placement="explicit")
+
+
+def _world(panel) -> np.ndarray:
+    """GarmentCode's 3D layout [m] of a panel's corners, from an explicit placement."""
+    pm = panel.placement_m if "translation" in panel.placement else None
+    if pm is None:  # body placement: GarmentCode's, kept in the meta (cm)
+        g = panel.meta["garmentcode_placement"]
+        r, t = rotation_matrix_xyz_deg(g["rotation_deg"]), np.asarray(g["translation"]) * 0.01
+    else:
+        r, t = rotation_matrix_xyz_deg(pm["rotation_deg"]), pm["translation_m"]
+    v = panel.vertices_m
+    return np.c_[v, np.zeros(len(v))] @ r.T + t
+
+
+def test_mean_all_levels_are_garmentcodes():
+    """GarmentCode's waist level is height - head_l - waist_line (its body_params.py); the
+    flared skirt's waistband tops out exactly there."""
+    assert load_garmentcode_levels(GC / "bodies" / "mean_all.yaml") == MEAN_ALL
+    assert MEAN_ALL.waist_cm == pytest.approx(171.99 - 26.3262 - 36.8913)
+    _, explicit = _both("flare_skirt")
+    top = max(_world(p)[:, 1].max() for n, p in explicit.panels.items() if n.startswith("wb"))
+    assert top * 100 == pytest.approx(MEAN_ALL.waist_cm, abs=0.1)
+
+
+def test_shirt_panels_go_on_torso_and_arms():
+    body, explicit = _both("shirt_mean")
+    for name, panel in body.panels.items():
+        pl = panel.placement
+        side = "front" if name.endswith("_f") or "ftorso" in name else "back"
+        assert pl["side"] == side, name
+        if "sleeve" in name:
+            arm = "left" if name.startswith("left") else "right"
+            assert pl["body"] == f"arm_{arm}" and pl["landmark"] == f"shoulder_point_{arm}"
+        else:
+            assert pl["body"] == "torso" and pl["landmark"] == "side_neck_point_left"
+            # the bodice's top at the side neck point, its centre line on the body's
+            assert pl["anchor"][1] == pytest.approx(panel.vertices_m[:, 1].max() * 100)
+            assert pl["anchor"][0] == pytest.approx(0.0, abs=1e-6)
+        # the same cloth: edge lengths unchanged, the same 3D layout recorded
+        for e, f in zip(panel.edges, explicit.panels[name].edges, strict=True):
+            assert e.length_m == pytest.approx(f.length_m, rel=1e-6)
+        np.testing.assert_allclose(_world(panel), _world(explicit.panels[name]), atol=1e-5)
+
+
+def test_sleeves_are_turned_along_the_arm():
+    """A sleeve's y axis runs up GarmentCode's arm (45 deg below the horizontal) and its
+    grain turns with it."""
+    body, explicit = _both("shirt_mean")
+    sleeve = body.panels["left_sleeve_f"]
+    g = sleeve.meta["garmentcode_placement"]
+    r = rotation_matrix_xyz_deg(g["rotation_deg"])
+    y_world = r @ [0.0, 1.0, 0.0]
+    a = np.radians(MEAN_ALL.arm_pose_deg)
+    np.testing.assert_allclose(y_world, [-np.cos(a), np.sin(a), 0.0], atol=1e-6)
+    grain_world = r[:, :2] @ sleeve.grain
+    old = explicit.panels["left_sleeve_f"]
+    r0 = rotation_matrix_xyz_deg(old.placement_m["rotation_deg"])
+    np.testing.assert_allclose(grain_world, r0[:, :2] @ old.grain, atol=1e-6)
+    # the anchor: the sleeve's top (at the shoulder point), its middle across
+    assert sleeve.placement["anchor"][1] == pytest.approx(sleeve.vertices_m[:, 1].max() * 100)
+
+
+def test_skirts_hang_from_the_waist_and_trousers_keep_their_place():
+    body, _ = _both("flare_skirt")
+    assert {p.placement["landmark"] for p in body.panels.values()} == {"waist_front",
+                                                                       "waist_back"}  # fmt: skip
+    body, _ = _both("js_mean_all")
+    kept = body.meta["garmentcode_placement_kept"]
+    assert sorted(kept) == ["pant_b_l", "pant_b_r", "pant_f_l", "pant_f_r"]
+    assert all("translation" in body.panels[n].placement for n in kept)
+    # a hood, laid out above the bodice, keeps its height above it
+    body, explicit = _both("hoody_mean")
+    hood, torso = body.panels["left_hood"].placement, body.panels["left_ftorso"].placement
+    assert hood["side"] == "left" and torso["landmark"] == hood["landmark"]
+    rise = _world(explicit.panels["left_hood"])[:, 1].min() - _world(
+        explicit.panels["left_ftorso"])[:, 1].max()  # fmt: skip
+    # hood's lowest point above the bodice's top, in both placements' frames (cm)
+    hood_low = body.panels["left_hood"].vertices_m[:, 1].min() * 100 - hood["anchor"][1]
+    torso_top = body.panels["left_ftorso"].vertices_m[:, 1].max() * 100 - torso["anchor"][1]
+    assert hood_low - torso_top == pytest.approx(rise * 100, abs=0.01)
