@@ -3,6 +3,7 @@
 Usage:
     python benchmarks/bench_garmentcode.py [SPEC ...] [--edge-cm 3] [--jobs 2]
         [--body tests/data/garmentcode/bodies/mean_all.yaml | --size N] [--tag TAG]
+        [DRAPE FLAGS ...]
 
 Each specification in ``tests/data/garmentcode/`` (or those named, by the part of the file
 name before ``_specification.json``) is imported with ``python -m sandbox import-garmentcode``
@@ -12,6 +13,7 @@ a failed drape is a row of the table, not the end of the run. ``--jobs 2`` drape
 time with one thread each (the times are then per core). The table goes to
 ``docs/results/garmentcode_TAG.md`` (and ``.json``) and the front views to
 ``docs/garmentcode/TAG.png``; TAG defaults to the body and the edge, e.g. ``mean_all_3cm``.
+Flags the script does not know are passed to ``drape`` (``--fabric jersey``).
 """
 
 from __future__ import annotations
@@ -127,9 +129,8 @@ def main(argv=None) -> int:
     ap.add_argument("--jobs", type=int, default=1)
     ap.add_argument("--tag", default=None)
     ap.add_argument("--out", type=Path, default=ROOT / "out" / "bench_garmentcode")
-    ap.add_argument("extra", nargs=argparse.REMAINDER, help="after --: more drape flags")
-    args = ap.parse_args(argv)
-    args.extra = [a for a in args.extra if a != "--"]
+    args, extra = ap.parse_known_args(argv)  # the rest: flags for `drape`
+    args.extra = [a for a in extra if a != "--"]
     who = f"size{args.size}" if args.size else args.body.stem
     TAG = args.tag or f"{who}_{args.edge_cm:g}cm"
     out = args.out / TAG

@@ -96,3 +96,27 @@ def test_skirts_hang_from_the_waist_and_trousers_keep_their_place():
     hood_low = body.panels["left_hood"].vertices_m[:, 1].min() * 100 - hood["anchor"][1]
     torso_top = body.panels["left_ftorso"].vertices_m[:, 1].max() * 100 - torso["anchor"][1]
     assert hood_low - torso_top == pytest.approx(rise * 100, abs=0.01)
+
+
+def test_seam_sides_are_sampled_alike():
+    """GarmentCode's shirt has 7.5 mm edges beside its side seams: each side is graded
+    towards its own, yet both sides of every seam of equal edges get the same samples, at
+    the same fractions of their lengths (the springs join coincident points), and the mesh
+    keeps its quality."""
+    from sandbox.pattern.mesh2d import min_angle_deg
+    from sandbox.pattern.panel_mesh import _fractions, mesh_pattern
+
+    p, _ = _both("shirt_mean")
+    for h in (0.03, 0.015):
+        meshes = mesh_pattern(p, h)
+        matched = 0
+        for seam in p.seams:
+            (pa, ka), (pb, kb) = seam.side_a[0], seam.side_b[0]
+            qa = meshes[pa].points[meshes[pa].edge_vertices[ka]]
+            qb = meshes[pb].points[meshes[pb].edge_vertices[kb]]
+            fa, fb = _fractions(qa), _fractions(qb)[::-1]
+            assert len(fa) == len(fb), (pa, ka, pb, kb)
+            np.testing.assert_allclose(fa, 1.0 - fb, atol=2e-3)
+            matched += 1
+        assert matched == len(p.seams) == 18
+        assert min(min_angle_deg(m.points, m.triangles) for m in meshes.values()) >= 25.0

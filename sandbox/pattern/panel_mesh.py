@@ -37,6 +37,9 @@ from sandbox.pattern.spec import Panel, Pattern, load_pattern
 DEFAULT_EDGE_M = 0.01
 GRADING = 0.2
 GRADE_BELOW = 0.6
+#: the two sides of a seam are sampled alike when their lengths differ by at most this
+#: fraction (a longer side is gathered: its own even sampling is kept)
+MATCH_LENGTHS = 0.1
 """Boundary segments grow by at most this fraction per segment away from a tiny edge."""
 MIN_ANGLE_DEG = 28.0
 """Requested minimum angle; Triangle reaches it except next to sharper outline corners."""
@@ -72,6 +75,7 @@ def mesh_panel(
     min_angle_deg: float = MIN_ANGLE_DEG,
     where: str | None = None,
     limits: PatternLimits = DEFAULT_LIMITS,
+    samples: list[np.ndarray] | None = None,
 ) -> PanelMesh:
     """Irregular quality mesh of a panel with its edges resolved to vertices.
 
@@ -83,6 +87,8 @@ def mesh_panel(
         where: names the panel in error messages.
         limits: :class:`~sandbox.pattern.limits.PatternLimits`; a mesh estimated over
             ``max_mesh_vertices`` is refused before anything is sampled.
+        samples: the boundary samples of each edge (:func:`_sample_edges`' form), when the
+            pattern chose them (:func:`mesh_pattern` matches the two sides of a seam).
 
     The sampled boundary is checked before Triangle sees it (finite, no repeated point, no
     self-crossing); every failure is a SandboxError naming ``where`` and the edges.
@@ -93,7 +99,8 @@ def mesh_panel(
     vertices = panel_vertex_estimate(panel, edge_length_m, where)
     check_mesh_size(vertices, limits.max_mesh_vertices, where,
                     f"a {edge_length_m * 100:g} cm mesh of this panel")  # fmt: skip
-    samples = _sample_edges(panel, edge_length_m)
+    if samples is None:
+        samples = _sample_edges(panel, edge_length_m)
     boundary = np.vstack([s[:-1] for s in samples])
     nb = len(boundary)
     owner = np.repeat(np.arange(len(samples)), [len(s) - 1 for s in samples])
@@ -179,32 +186,85 @@ def _cm(xy) -> str:
 
 
 def _sample_edges(panel: Panel, h: float) -> list[np.ndarray]:
-    """Boundary samples of every edge: even by arc length (``Edge.sample``), except that an
-    edge whose neighbour ends in a segment shorter than GRADE_BELOW times its own spacing is
-    graded towards it (growth GRADING per segment), so tiny edges (GarmentCode has some
-    under 1 mm) keep the mesh quality although no boundary segment may be split."""
-    edges, n = panel.edges, len(panel.edges)
-    out = [e.sample(h) for e in edges]
-    for _ in range(3):  # grading changes end segments, which may call for more grading
-        first = [float(np.linalg.norm(q[1] - q[0])) for q in out]
-        last = [float(np.linalg.norm(q[-1] - q[-2])) for q in out]
-        spacing = [e.length_m / max(1, math.ceil(e.length_m / h - 1e-9)) for e in edges]
+    """Boundary samples of every edge of one panel (:func:`_sample_panels`, no seams)."""
+    return _sample_panels({panel.name: panel}, h, {})[panel.name]
+
+
+def _sample_panels(panels: dict, h: float, partners: dict) -> dict[str, list[np.ndarray]]:
+    """Boundary samples of every edge of every panel [m]: even by arc length (``Edge.sample``),
+    except that an edge whose neighbour ends in a segment shorter than GRADE_BELOW times its
+    own spacing is graded towards it (growth GRADING per segment), so tiny edges (GarmentCode
+    has some under 1 mm) keep the mesh quality although no boundary segment may be split.
+
+    ``partners``: (panel, edge) -> (panel, edge, reversed) for the two sides of a seam that
+    are sampled alike (:func:`_seam_partners`): both at the same fractions of their lengths,
+    spaced everywhere by the finer of their two gradings, so the seam's springs join
+    coincident points.
+    """
+    out = {name: [e.sample(h) for e in p.edges] for name, p in panels.items()}
+    for _ in range(4):  # grading changes end segments, which may call for more grading
+        size = {}  # (panel, edge) -> (even spacing, start target, end target) [m]
+        for name, p in panels.items():
+            q, n = out[name], len(p.edges)
+            for k, e in enumerate(p.edges):
+                even = e.length_m / max(1, math.ceil(e.length_m / h - 1e-9))
+                start = float(np.linalg.norm(q[(k - 1) % n][-1] - q[(k - 1) % n][-2]))
+                end = float(np.linalg.norm(q[(k + 1) % n][1] - q[(k + 1) % n][0]))
+                size[name, k] = (even, start if start < GRADE_BELOW * even else np.inf,
+                                 end if end < GRADE_BELOW * even else np.inf)  # fmt: skip
         changed = False
-        for k, e in enumerate(edges):
-            start, end = last[(k - 1) % n], first[(k + 1) % n]
-            start = start if start < GRADE_BELOW * spacing[k] else np.inf
-            end = end if end < GRADE_BELOW * spacing[k] else np.inf
-            if np.isinf(start) and np.isinf(end):
+        for (name, k), (even, start, end) in size.items():
+            e = panels[name].edges[k]
+            if (name, k) in partners:
+                other, j, rev = partners[name, k]
+                if (other, j) < (name, k):
+                    continue  # sampled with its partner
+                e2 = panels[other].edges[j]
+                f = _graded_fractions([(e.length_m, even, start, end, False),
+                                       (e2.length_m, *size[other, j], rev)])  # fmt: skip
+                f2 = 1.0 - f[::-1] if rev else f
+                new = {(name, k): _points_at_fractions(e, f),
+                       (other, j): _points_at_fractions(e2, f2)}  # fmt: skip
+            elif np.isinf(start) and np.isinf(end):
                 continue
-            q = curves.sample_curve_graded(
-                e.kind, e.p0_m, e.p1_m, h, start, end, growth=GRADING,
-                sagitta=e.sagitta_m, controls=e.controls_m,
-            )  # fmt: skip
-            changed = changed or len(q) != len(out[k]) or not np.allclose(q, out[k])
-            out[k] = q
+            else:
+                new = {(name, k): curves.sample_curve_graded(
+                    e.kind, e.p0_m, e.p1_m, h, start, end, growth=GRADING,
+                    sagitta=e.sagitta_m, controls=e.controls_m)}  # fmt: skip
+            for (pn, pk), q in new.items():
+                old = out[pn][pk]
+                changed = changed or len(q) != len(old) or not np.allclose(q, old)
+                out[pn][pk] = q
         if not changed:
             break
     return out
+
+
+def _graded_fractions(sides) -> np.ndarray:
+    """Fractions of [0, 1] for edges sampled alike: ``sides`` lists (length, even spacing,
+    start target, end target, reversed) [m]; the spacing at u is the smallest over the
+    sides of :func:`curves.sample_curve_graded`'s min(even, start + GRADING s, end + GRADING
+    (L - s)), as a fraction of each side's length; points at equal steps of ∫ du / spacing."""
+    u = np.linspace(0.0, 1.0, 4097)
+    size = np.full_like(u, np.inf)
+    for length, even, start, end, rev in sides:
+        s = (1.0 - u if rev else u) * length  # arc length from the side's own start
+        side = np.minimum(even, np.minimum(start + GRADING * s, end + GRADING * (length - s)))
+        size = np.minimum(size, side / length)
+    inv = 1.0 / size
+    cum = np.concatenate([[0.0], np.cumsum(0.5 * (inv[1:] + inv[:-1]) * np.diff(u))])
+    n = max(1, math.ceil(cum[-1] - 1e-9))
+    f = np.interp(np.linspace(0.0, cum[-1], n + 1), cum, u)
+    f[0], f[-1] = 0.0, 1.0
+    return f
+
+
+def _points_at_fractions(edge, f: np.ndarray) -> np.ndarray:
+    """Points (len(f), 2) [m] at fractions ``f`` of an edge's arc length, exact corners."""
+    pts = curves.points_at_lengths(edge.kind, edge.p0_m, edge.p1_m, f * edge.length_m,
+                                   sagitta=edge.sagitta_m, controls=edge.controls_m)  # fmt: skip
+    pts[0], pts[-1] = edge.p0_m, edge.p1_m
+    return pts
 
 
 def mesh_pattern(
@@ -222,10 +282,51 @@ def mesh_pattern(
                 for name, p in pattern.panels.items())  # fmt: skip
     check_mesh_size(total, limits.max_mesh_vertices, pattern.source,
                     f"a {h * 100:g} cm mesh of the {len(pattern.panels)} panels")  # fmt: skip
+    samples = _sample_panels(pattern.panels, h, _seam_partners(pattern, h))
     return {
-        name: mesh_panel(p, h, where=f"{pattern.source}: panel {name!r}", limits=limits)
+        name: mesh_panel(
+            p, h, where=f"{pattern.source}: panel {name!r}", limits=limits, samples=samples[name]
+        )  # fmt: skip
         for name, p in pattern.panels.items()
     }
+
+
+def _seam_partners(pattern: Pattern, h: float) -> dict:
+    """The seams whose two sides are sampled alike (:func:`_sample_panels`), as
+    (panel, edge) -> (panel, edge, reversed) both ways.
+
+    Each side is graded towards its own short neighbours, so a seam between two equal
+    edges may be sampled differently on its two sides (GarmentCode's side seams next to its
+    1-8 mm edges). Its springs then join a point to the two nearest on the other side, with
+    rest lengths of up to half a segment: such a pair holds the point on the line's length
+    but hardly across it, and a seam pressed between arm and body opens by millimetres.
+    Sampled alike: a seam of one edge a side, sides within MATCH_LENGTHS of each other in
+    length, direction given (``"same"`` or ``"reverse"``: an ``"auto"`` seam's pairing is
+    known only once placed), and sampled differently on their own.
+    """
+    alone = _sample_panels(pattern.panels, h, {})
+    out = {}
+    for seam in pattern.seams:
+        if len(seam.side_a) != 1 or len(seam.side_b) != 1 or seam.direction == "auto":
+            continue
+        (pa, ka), (pb, kb) = seam.side_a[0], seam.side_b[0]
+        la = pattern.panels[pa].edges[ka].length_m
+        lb = pattern.panels[pb].edges[kb].length_m
+        if (pa, ka) == (pb, kb) or abs(la - lb) > MATCH_LENGTHS * max(la, lb):
+            continue
+        rev = seam.direction == "reverse"
+        fa, fb = _fractions(alone[pa][ka]), _fractions(alone[pb][kb])
+        if len(fa) == len(fb) and np.allclose(fa, 1.0 - fb[::-1] if rev else fb, atol=1e-6):
+            continue
+        out[pa, ka] = (pb, kb, rev)
+        out[pb, kb] = (pa, ka, rev)
+    return out
+
+
+def _fractions(q: np.ndarray) -> np.ndarray:
+    """Cumulative chord length of a polyline as fractions of its total, from 0 to 1."""
+    c = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(q, axis=0), axis=1))])
+    return c / c[-1]
 
 
 def _chain(pattern: Pattern, side: list[tuple[str, int]]) -> list[bool]:
