@@ -120,3 +120,21 @@ def test_seam_sides_are_sampled_alike():
             matched += 1
         assert matched == len(p.seams) == 18
         assert min(min_angle_deg(m.points, m.triangles) for m in meshes.values()) >= 25.0
+
+
+def test_a_lapel_is_cut_to_turn_over():
+    """Every stitch of the standing lapel's front collar joins its right side to the wrong
+    side of its neighbours: it is meant to end turned over, and the fold check skips it."""
+    from sandbox.garment.metrics import fold_metrics
+
+    body, _ = _both("standing_lapel_fix")
+    turns = sorted(n for n, p in body.panels.items() if p.meta.get("turns_over"))
+    assert turns == ["left_collar_front", "right_collar_front"]
+    # two triangles, the second turned over: counted unless it is meant to turn
+    x0 = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [2, 0, 0], [3, 0, 0], [2, 1, 0]], float)
+    x1 = x0.copy()
+    x1[5] = [2, -1, 0]
+    tris = np.array([[0, 1, 2], [3, 4, 5]])
+    assert fold_metrics(x0, x1, tris)["folded_area_pct"] == pytest.approx(50.0)
+    keep = np.array([False, True])
+    assert fold_metrics(x0, x1, tris, meant_to_turn=keep)["folded_area_pct"] == 0.0

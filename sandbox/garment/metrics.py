@@ -44,8 +44,9 @@ def drape_metrics(scene, result, *, build_s: float = 0.0) -> dict:
     acceptance = g.config.acceptance
     m.update(ease_cm(result.positions, model.tri_indices_np, mannequin, g.placement_body))
     m.update(hang_metrics(model.initial_positions_np, result.positions, mannequin, acceptance))
+    turns = turning_triangles(g.pattern, model)
     m.update(fold_metrics(model.initial_positions_np, result.positions, model.tri_indices_np,
-                          g.placement_body, acceptance))  # fmt: skip
+                          g.placement_body, acceptance, turns))  # fmt: skip
     m["hem_nodes"] = hem_nodes(g, model, result.positions)
     m["acceptance_failures"] = acceptance_failures(m, acceptance)
     m["meets_acceptance"] = not m["acceptance_failures"]
@@ -135,7 +136,8 @@ def hang_metrics(x_start: np.ndarray, x_end: np.ndarray, mannequin,
 
 
 def fold_metrics(x_start: np.ndarray, x_end: np.ndarray, triangles: np.ndarray,
-                 body=None, acceptance: AcceptanceConfig | None = None) -> dict:  # fmt: skip
+                 body=None, acceptance: AcceptanceConfig | None = None,
+                 meant_to_turn: np.ndarray | None = None) -> dict:  # fmt: skip
     """How much of a garment ended turned over: ``folded_area_pct``, the area [%] (at the
     start) of the triangles turned over, and ``rolled_up``, that share above
     :attr:`AcceptanceConfig.fold_tolerance_pct` (or NaN positions).
@@ -148,6 +150,8 @@ def fold_metrics(x_start: np.ndarray, x_end: np.ndarray, triangles: np.ndarray,
     normal). A strap that bends over the shoulder as it should turns its normal but still
     faces out, so it is not counted; nor is a flare that a hanging hand presses in towards
     the thigh, which faces the hand (the nearest body part) but has not turned.
+    ``meant_to_turn`` (a bool per triangle): cloth designed to end turned over (a lapel, see
+    :func:`turning_triangles`), not counted.
     """
     tolerance = (acceptance or AcceptanceConfig()).fold_tolerance_pct
     t = np.asarray(triangles, np.int64)
@@ -166,9 +170,26 @@ def fold_metrics(x_start: np.ndarray, x_end: np.ndarray, triangles: np.ndarray,
     turned = np.sum(n0 * n1, axis=1) < 0
     if body is not None and finite:
         turned &= outward(x_start, n0) != outward(x_end, n1)
+    if meant_to_turn is not None:
+        turned &= ~np.asarray(meant_to_turn, bool)
     pct = float(100.0 * area[turned].sum() / max(area.sum(), 1e-300))
     return {"folded_area_pct": pct if finite else float("nan"),
             "rolled_up": bool(not finite or pct > tolerance)}  # fmt: skip
+
+
+def turning_triangles(pattern, model) -> np.ndarray | None:
+    """A bool per triangle: True on the panels whose ``meta.turns_over`` says they are cut to
+    end turned over against their neighbours (a lapel; GarmentCode's import sets it for a
+    panel all of whose stitches join its right side to their wrong side); None when no
+    panel is."""
+    names = {n for n, p in pattern.panels.items() if p.meta.get("turns_over")}
+    if not names:
+        return None
+    mask = np.zeros(len(model.tri_indices_np), bool)
+    for piece in model.pieces:
+        if piece.name in names:
+            mask[piece.tri_start : piece.tri_start + piece.tri_count] = True
+    return mask
 
 
 def hem_ring(pattern, meshes: dict, piece_start: dict) -> np.ndarray | None:

@@ -18,7 +18,8 @@ R [x, y, 0] + t). Curvature comes in three forms, all converted exactly:
 
 A stitch ``[{"panel", "edge"}, {"panel", "edge"}]`` becomes a seam with direction
 "reverse" (GarmentCode sews the end of one edge to the start of the other), or "same"
-when the stitch carries the "right_wrong" flag. Panels whose edge loop runs clockwise in
+when the stitch carries the "right_wrong" flag (a panel all of whose stitches do, a lapel, is
+cut to end turned over: ``meta.turns_over``). Panels whose edge loop runs clockwise in
 their own 2D frame (GarmentCode's back panels) are mirrored (x -> -x, rotation R -> R
 diag(-1, 1, -1)): same 3D shape, but counter-clockwise seen from the outside as our format
 requires. Lengths are written in centimetres.
@@ -54,8 +55,13 @@ MIRROR = np.diag([-1.0, 1.0, -1.0])
 PLACEMENTS = ("body", "explicit")
 
 
-def load_garmentcode(path: str | Path, *, fabric: str | dict = DEFAULT_FABRIC,
-                     placement: str = "body", levels: GarmentCodeLevels = MEAN_ALL) -> Pattern:
+def load_garmentcode(
+    path: str | Path,
+    *,
+    fabric: str | dict = DEFAULT_FABRIC,
+    placement: str = "body",
+    levels: GarmentCodeLevels = MEAN_ALL,
+) -> Pattern:
     """Read a GarmentCode specification JSON as a :class:`~sandbox.pattern.spec.Pattern`
     (``placement``, ``levels``: as :func:`garmentcode_to_dict`)."""
     path = Path(path)
@@ -231,8 +237,18 @@ def garmentcode_to_dict(
         flags = [x for x in st[2:] if isinstance(x, str)]
         direction = "same" if "right_wrong" in flags else "reverse"
         seams.append({"a": sides[0], "b": sides[1], "direction": direction})
-    meta = {"imported_from": "GarmentCode", "units_in_meter": units_in_meter,
-            "placement": placement}
+    flagged: dict[str, list[bool]] = {}
+    for seam in seams:
+        for side in (seam["a"], seam["b"]):
+            flagged.setdefault(side[0]["panel"], []).append(seam["direction"] == "same")
+    for pname, flags in flagged.items():
+        if all(flags):  # every stitch right side to wrong side: cut to turn over (a lapel)
+            panels[pname]["meta"]["turns_over"] = True
+    meta = {
+        "imported_from": "GarmentCode",
+        "units_in_meter": units_in_meter,
+        "placement": placement,
+    }
     if placement == "body":
         kept = []
         for pname, landmark in body_placements(panels, levels).items():
@@ -352,10 +368,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("input", help="GarmentCode *_specification.json")
     ap.add_argument("output", help="sandbox pattern JSON to write")
     ap.add_argument("--fabric", default=DEFAULT_FABRIC, help="fabric preset (default: cotton)")
-    ap.add_argument("--placement", choices=PLACEMENTS, default="body",
-                    help="body (default): each panel on the landmarks of the body part and "
-                    "side GarmentCode laid it out on, wrapped round the mannequin like the "
-                    "library's; explicit: GarmentCode's own translation and rotation")
+    ap.add_argument(
+        "--placement",
+        choices=PLACEMENTS,
+        default="body",
+        help="body (default): each panel on the landmarks of the body part and "
+        "side GarmentCode laid it out on, wrapped round the mannequin like the "
+        "library's; explicit: GarmentCode's own translation and rotation",
+    )
     ap.add_argument("--body", type=Path, default=None, metavar="YAML",
                     help="the GarmentCode body file the design was drafted on, for its "
                     "levels (default: GarmentCode's mean_all)")  # fmt: skip
@@ -380,8 +400,10 @@ def main(argv: list[str] | None = None) -> int:
     )
     kept = pattern.meta.get("garmentcode_placement_kept")
     if args.placement == "body":
-        print("placed on the body's landmarks"
-              + (f"; GarmentCode's placement kept for {', '.join(kept)} (legs)" if kept else ""))
+        print(
+            "placed on the body's landmarks"
+            + (f"; GarmentCode's placement kept for {', '.join(kept)} (legs)" if kept else "")
+        )
     return 0
 
 
