@@ -21,6 +21,29 @@ def test_the_default_body_maps_onto_size_18_with_its_girths():
     assert any("waist_line 36.8913 cm clamped" in n for n in body.notes)
     assert any(n.startswith("shoulder_length 13 cm: from size 18") for n in body.notes)
     assert any("arm_length" in n and "no counterpart" in n for n in body.notes)
+    # GarmentCode's arm pose is below the horizontal; ours from the vertical
+    assert body.arm_angle_deg == pytest.approx(90.0 - 45.483)
+    assert any(n.startswith("arms at 44.517 deg from the vertical") for n in body.notes)
+    assert not any("arm_pose_angle" in n and "no counterpart" in n for n in body.notes)
+
+
+def test_a_posed_mannequin_keeps_its_measurements_and_its_pose():
+    """The arms open to the angle asked; the torso, its seven measurements and the
+    triangles stay; a resize keeps the pose; an angle out of range is refused."""
+    from sandbox.garment import make_mannequin
+
+    a = make_mannequin(18)
+    b = make_mannequin(18, arm_angle_deg=44.5)
+    assert b.arm_angle_deg == pytest.approx(44.5) and a.arm_angle_deg == pytest.approx(16.0)
+    assert (a.triangles == b.triangles).all()
+    for k, v in a.measure().items():
+        assert b.measure()[k] == pytest.approx(v, abs=1e-6), k
+    hand = b.vertices[:, 0].max() - a.vertices[:, 0].max()
+    assert 0.03 < hand < 0.1  # the left hand 3-10 cm further out
+    c = b.resize(b.measurements_requested.replace(bust_girth=104.0))
+    assert c.arm_angle_deg == pytest.approx(44.5)
+    with pytest.raises(SandboxError, match="arm angle 80 deg: the mannequin's arms can be posed"):
+        make_mannequin(12, arm_angle_deg=80)
 
 
 @pytest.mark.parametrize("name", sorted(p.name for p in BODIES.glob("*.yaml")))

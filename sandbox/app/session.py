@@ -360,7 +360,7 @@ class Session:
             if not math.isfinite(float(v)):
                 raise SandboxError(f"measurement {k!r} must be a number, got {v!r}")
         merged = {**self.measurements, **{k: float(v) for k, v in cm.items()}}
-        body = make_mannequin(self.size, merged)
+        body = make_mannequin(self.size, merged, arm_angle_deg=self.mannequin.arm_angle_deg)
         if body.vertices.shape != self.mannequin.vertices.shape:
             raise SandboxError("the resized mannequin has another structure")
         from sandbox.collision.body_probe import follow_body

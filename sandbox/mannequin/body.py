@@ -24,7 +24,7 @@ import math
 import numpy as np
 
 from sandbox.mannequin.sections import breasts, hull_perimeter, torso_ring
-from sandbox.mannequin.shape import ARM_ANGLE_MIN_RAD, ARM_CLEARANCE_M, BodyShape
+from sandbox.mannequin.shape import ARM_CLEARANCE_M, BodyShape
 
 # (front depth / width, back depth / width, exponent, -) of each torso key ring.
 TORSO_RINGS = ("crotch_top", "hip", "high_hip", "waist", "underbust", "bust", "armpit")
@@ -201,10 +201,10 @@ def neck_ring(s: BodyShape, psi: np.ndarray, *, top: bool = False) -> np.ndarray
 def arm_frames(s: BodyShape, loop: np.ndarray, torso_half_width) -> dict:
     """Centres, normals and in-plane axes of the left arm's key sections.
 
-    The arm hangs in an A-pose at angle theta from vertical, at least
-    :data:`ARM_ANGLE_MIN_RAD`, opened further until the arm clears the torso by
-    :data:`ARM_CLEARANCE_M` (``torso_half_width(y)`` gives the torso's half width at
-    height y).
+    The arm hangs in an A-pose at angle theta from vertical, at least ``s.arm_angle``
+    (:data:`~sandbox.mannequin.shape.ARM_ANGLE_MIN_RAD` unless posed), opened further
+    until the arm clears the torso by :data:`ARM_CLEARANCE_M` (``torso_half_width(y)``
+    gives the torso's half width at height y).
     """
     c0 = loop.mean(axis=0)
     _, _, vt = np.linalg.svd(loop - c0)
@@ -221,7 +221,7 @@ def arm_frames(s: BodyShape, loop: np.ndarray, torso_half_width) -> dict:
             s.wrist_girth,
         ]
     )
-    theta = ARM_ANGLE_MIN_RAD
+    theta = s.arm_angle
     for d, g in zip(dist[1:], girths[1:], strict=True):
         r = g / (2 * math.pi)
         for _ in range(3):

@@ -7,10 +7,12 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 from functools import lru_cache
 
 import numpy as np
 
+from sandbox.errors import SandboxError
 from sandbox.mannequin import tape
 from sandbox.mannequin.measurements import (
     Measurements,
@@ -25,6 +27,8 @@ from sandbox.mannequin.shape import BodyShape, shape_from_size
 from sandbox.mannequin.surface import BodyTemplate
 
 DEFAULT_RESOLUTION = 48  # torso columns; 48 -> ~17k triangles, 64 -> ~29k
+#: the arm pose a mannequin can be built in: the arms' angle from the vertical [deg]
+ARM_ANGLE_RANGE_DEG = (16.0, 55.0)
 BASE_SIZE = 14  # the template's topology is fixed on this database size
 
 
@@ -65,9 +69,16 @@ class Mannequin:
     resolution: int
     shape: BodyShape | None
 
+    @property
+    def arm_angle_deg(self) -> float | None:
+        """The smallest angle of the arms from the vertical it was built with [deg] (the arms
+        open further where they would come closer to the torso than their clearance)."""
+        return None if self.shape is None else math.degrees(self.shape.arm_angle)
+
     def resize(self, measurements: Measurements) -> Mannequin:
-        """§2.1.4 on the same structure: new vertex positions, same triangles."""
-        return build_mannequin(measurements, resolution=self.resolution or DEFAULT_RESOLUTION)
+        """§2.1.4 on the same structure: new vertex positions, same triangles, same pose."""
+        return build_mannequin(measurements, resolution=self.resolution or DEFAULT_RESOLUTION,
+                               arm_angle_deg=self.arm_angle_deg)  # fmt: skip
 
     def measure(self) -> dict[str, float]:
         """The tape measure on this mesh, with its own landmarks [cm]."""
@@ -85,13 +96,21 @@ def build_mannequin(
     size: int | None = None,
     resolution: int = DEFAULT_RESOLUTION,
     flag_names: dict[str, str] | None = None,
+    arm_angle_deg: float | None = None,
 ) -> Mannequin:
     """Build a mannequin from measurements [cm] and/or a database size.
 
     With only ``size``, the stored size; with ``measurements``, §2.1.4 from the closest
-    size (or from ``size`` if given). Raises :class:`SandboxError` for out-of-range or
-    contradictory measurements.
+    size (or from ``size`` if given). ``arm_angle_deg``: the arms' angle from the vertical
+    (within :data:`ARM_ANGLE_RANGE_DEG`; default the A-pose's 16°, opened further until
+    the arms clear the torso). Raises :class:`SandboxError` for out-of-range or
+    contradictory measurements or an arm angle out of range.
     """
+    if arm_angle_deg is not None:
+        lo, hi = ARM_ANGLE_RANGE_DEG
+        if not (lo <= float(arm_angle_deg) <= hi):
+            raise SandboxError(f"arm angle {arm_angle_deg!r} deg: the mannequin's arms can be "
+                               f"posed at {lo:g}-{hi:g} deg from the vertical")  # fmt: skip
     table = load_size_table()
     if measurements is None:
         entry = size_entry(size if size is not None else 12, table)
@@ -99,12 +118,15 @@ def build_mannequin(
     else:
         validate(measurements, flag_names=flag_names)
         entry = closest_size(measurements, table) if size is None else size_entry(size, table)
-    return _build(measurements, entry, resolution)
+    return _build(measurements, entry, resolution, arm_angle_deg)
 
 
-def _build(target: Measurements, entry: SizeEntry, resolution: int) -> Mannequin:
+def _build(target: Measurements, entry: SizeEntry, resolution: int,
+           arm_angle_deg: float | None = None) -> Mannequin:  # fmt: skip
     st = _structure(resolution)
     s = fit_shape(st.template, st.corrector, target, entry)
+    if arm_angle_deg is not None:  # the arms only: the torso's measurements stay
+        s = s.copy(arm_angle=math.radians(float(arm_angle_deg)))
     v = st.template.evaluate(s)
     return Mannequin(
         vertices=v,

@@ -56,6 +56,8 @@ class BodyShape:
     knee_girth: float
     calf_girth: float
     ankle_girth: float
+    # pose
+    arm_angle: float = ARM_ANGLE_MIN_RAD  # smallest angle of the arms from vertical [rad]
 
     def copy(self, **changes) -> BodyShape:
         return dataclasses.replace(self, **changes)

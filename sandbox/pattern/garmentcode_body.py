@@ -68,6 +68,9 @@ class GarmentCodeBody:
     measurements: dict
     size: int
     notes: tuple[str, ...] = field(default=())
+    arm_angle_deg: float | None = None
+    """The arms' angle from the vertical [deg]: 90 - ``arm_pose_angle`` (GarmentCode's is
+    below the horizontal), moved into the mannequin's range; None without one."""
 
 
 def load_garmentcode_body(path: str | Path) -> GarmentCodeBody:
@@ -113,12 +116,22 @@ def load_garmentcode_body(path: str | Path) -> GarmentCodeBody:
         ours[key] = float(ref[key])
         notes.append(f"{key} {ref[key]:g} cm: from size {nearest.size}, the closest by the "
                      f"three girths ({why})")  # fmt: skip
-    used = set(DIRECT.values()) | {"shoulder_w", "back_width"}
+    arm = None
+    if "arm_pose_angle" in body:
+        from sandbox.mannequin.model import ARM_ANGLE_RANGE_DEG
+
+        pose = number("arm_pose_angle")
+        lo, hi = ARM_ANGLE_RANGE_DEG
+        arm = min(max(90.0 - pose, lo), hi)
+        moved = "" if arm == 90.0 - pose else f", moved onto the supported {lo:g}-{hi:g} deg"
+        notes.append(f"arms at {arm:g} deg from the vertical: arm_pose_angle {pose:g} deg "
+                     f"below the horizontal{moved}")  # fmt: skip
+    used = set(DIRECT.values()) | {"shoulder_w", "back_width", "arm_pose_angle"}
     rest = sorted(k for k in body if k not in used)
     if rest:
         notes.append("no counterpart (the database size's proportions stand in): "
                      + ", ".join(rest))  # fmt: skip
-    return GarmentCodeBody(str(p), {k: ours[k] for k in KEYS}, nearest.size, tuple(notes))
+    return GarmentCodeBody(str(p), {k: ours[k] for k in KEYS}, nearest.size, tuple(notes), arm)
 
 
 def load_garmentcode_levels(path: str | Path):
