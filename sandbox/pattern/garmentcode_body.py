@@ -18,11 +18,14 @@ The other three are taken from the database size closest to the body's three gir
 ``shoulder_w`` is the straight distance between the shoulder points (ours is the tape over
 the back neck point, a few cm longer); ``back_width`` is measured around the back from
 armpit to armpit at the bust level (45-48 cm on its bodies; ours is the across-back width
-between the arm creases, 31-40 cm); a shoulder length is not measured. Everything else
-(height, arm length and pose, neck width, bust points, the levels of bust, waist and hips,
-inclinations, leg girth, ...) has no counterpart: the mannequin's proportions below the
-hips, its arms and its height come from the database. :func:`load_garmentcode_body` lists
-all of it in its ``notes``.
+between the arm creases, 31-40 cm); a shoulder length is not measured. The arm pose
+``arm_pose_angle`` (degrees below the horizontal) poses the mannequin's arms at 90 degrees
+minus it from the vertical (``arm_angle_deg``). Everything else (height, arm length, neck
+width, bust points, the levels of bust, waist and hips, inclinations, leg girth, ...) has no
+counterpart in the mannequin: its proportions below the hips, its arm length and its
+height come from the database (the levels place an imported design's panels:
+:mod:`sandbox.pattern.garmentcode_place`). :func:`load_garmentcode_body` lists all of it in
+its ``notes``.
 
 A mapped value just outside the supported range (within ``CLAMP_TOLERANCE`` of it, such
 as ``mean_all``'s 36.9 cm nape-to-waist against 37-46 cm) is moved onto the range's end
