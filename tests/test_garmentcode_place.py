@@ -138,3 +138,10 @@ def test_a_lapel_is_cut_to_turn_over():
     assert fold_metrics(x0, x1, tris)["folded_area_pct"] == pytest.approx(50.0)
     keep = np.array([False, True])
     assert fold_metrics(x0, x1, tris, meant_to_turn=keep)["folded_area_pct"] == 0.0
+
+
+def test_an_import_records_the_arm_pose_it_was_drafted_for():
+    """GarmentCode's arm pose is below the horizontal; the pattern records the mannequin's
+    angle from the vertical, and a drape without a given pose uses it."""
+    body, _ = _both("shirt_mean")
+    assert body.meta["arm_angle_deg"] == pytest.approx(90.0 - MEAN_ALL.arm_pose_deg)

@@ -52,16 +52,22 @@ def drape(
     """Drape a garment (library name, pattern file or dict) on a mannequin and write it.
 
     The mannequin is ``mannequin`` if given, else the database ``size`` (default 12)
-    resized by ``measurements`` (cm). ``config`` holds every setting of the simulation,
+    resized by ``measurements`` (cm), its arms posed as the pattern's ``meta.arm_angle_deg``
+    says if it does (GarmentCode's imports). ``config`` holds every setting of the simulation,
     the sewing, the repair and the acceptance (default :class:`DrapeConfig`). Writes into
     ``out_dir``: ``garment.obj`` / ``garment.ply`` (UVs = pattern coordinates [m]),
     ``body.obj``, ``render.png`` (front), ``render_back.png`` and ``metrics.json``
     (``meshes=False``: no meshes). Raises SandboxError on bad input and SimulationDiverged
     (nothing written) if the run blows up.
     """
-    if mannequin is None:
+    made = mannequin is None
+    if made:
         mannequin = make_mannequin(size, measurements)
     pattern = resolve_pattern(garment_or_path, mannequin)
+    pose = pattern.meta.get("arm_angle_deg")
+    if made and pose is not None and abs(pose - (mannequin.arm_angle_deg or 0.0)) > 1e-6:
+        # the pattern was drafted for arms in this pose (a GarmentCode import)
+        mannequin = make_mannequin(size, measurements, arm_angle_deg=float(pose))
     config = config or DrapeConfig()
     fit = check_fit(pattern, mannequin, material_for(pattern, fabric), config.fit)
     # refused before the coarse level runs (build_drape checks each level again)

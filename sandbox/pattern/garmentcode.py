@@ -39,7 +39,12 @@ import numpy as np
 
 from sandbox.errors import SandboxError
 from sandbox.pattern.curves import sample_curve
-from sandbox.pattern.garmentcode_place import MEAN_ALL, GarmentCodeLevels, body_placements
+from sandbox.pattern.garmentcode_place import (
+    MEAN_ALL,
+    GarmentCodeLevels,
+    arm_angle_from_pose,
+    body_placements,
+)
 from sandbox.pattern.mesh2d import polygon_area
 from sandbox.pattern.spec import (
     DEFAULT_FABRIC,
@@ -248,6 +253,8 @@ def garmentcode_to_dict(
         "imported_from": "GarmentCode",
         "units_in_meter": units_in_meter,
         "placement": placement,
+        # the arms the design was drafted for, from the vertical: drape poses the mannequin
+        "arm_angle_deg": arm_angle_from_pose(levels.arm_pose_deg),
     }
     if placement == "body":
         kept = []

@@ -122,11 +122,12 @@ def load_garmentcode_body(path: str | Path) -> GarmentCodeBody:
     arm = None
     if "arm_pose_angle" in body:
         from sandbox.mannequin.model import ARM_ANGLE_RANGE_DEG
+        from sandbox.pattern.garmentcode_place import arm_angle_from_pose
 
         pose = number("arm_pose_angle")
         lo, hi = ARM_ANGLE_RANGE_DEG
-        arm = min(max(90.0 - pose, lo), hi)
-        moved = "" if arm == 90.0 - pose else f", moved onto the supported {lo:g}-{hi:g} deg"
+        arm = arm_angle_from_pose(pose)
+        moved = "" if abs(arm - (90.0 - pose)) < 1e-6 else f", moved onto the supported {lo:g}-{hi:g} deg"
         notes.append(f"arms at {arm:g} deg from the vertical: arm_pose_angle {pose:g} deg "
                      f"below the horizontal{moved}")  # fmt: skip
     used = set(DIRECT.values()) | {"shoulder_w", "back_width", "arm_pose_angle"}

@@ -71,6 +71,16 @@ MEAN_ALL = GarmentCodeLevels.from_body({
     "crotch_hip_diff": 8.81363, "shoulder_w": 36.4568, "arm_pose_angle": 45.483,
 })  # fmt: skip
 
+def arm_angle_from_pose(arm_pose_deg: float) -> float:
+    """The mannequin's arm angle from the vertical [deg] for GarmentCode's arm pose (below
+    the horizontal), moved into the mannequin's range
+    (:data:`sandbox.mannequin.model.ARM_ANGLE_RANGE_DEG`)."""
+    from sandbox.mannequin.model import ARM_ANGLE_RANGE_DEG
+
+    lo, hi = ARM_ANGLE_RANGE_DEG
+    return round(min(max(90.0 - float(arm_pose_deg), lo), hi), 6)
+
+
 #: a torso panel whose top is this close to the nape [cm] is a bodice, hung from the shoulders
 BODICE_TOP_CM = 12.0
 _SIDES = ("front", "left", "back", "right")  # n's horizontal angle from +z, by quadrant
