@@ -127,7 +127,8 @@ def load_garmentcode_body(path: str | Path) -> GarmentCodeBody:
         pose = number("arm_pose_angle")
         lo, hi = ARM_ANGLE_RANGE_DEG
         arm = arm_angle_from_pose(pose)
-        moved = "" if abs(arm - (90.0 - pose)) < 1e-6 else f", moved onto the supported {lo:g}-{hi:g} deg"
+        moved = f", moved onto the supported {lo:g}-{hi:g} deg"
+        moved = "" if abs(arm - (90.0 - pose)) < 1e-6 else moved
         notes.append(f"arms at {arm:g} deg from the vertical: arm_pose_angle {pose:g} deg "
                      f"below the horizontal{moved}")  # fmt: skip
     used = set(DIRECT.values()) | {"shoulder_w", "back_width", "arm_pose_angle"}

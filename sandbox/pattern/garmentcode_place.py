@@ -71,6 +71,7 @@ MEAN_ALL = GarmentCodeLevels.from_body({
     "crotch_hip_diff": 8.81363, "shoulder_w": 36.4568, "arm_pose_angle": 45.483,
 })  # fmt: skip
 
+
 def arm_angle_from_pose(arm_pose_deg: float) -> float:
     """The mannequin's arm angle from the vertical [deg] for GarmentCode's arm pose (below
     the horizontal), moved into the mannequin's range
