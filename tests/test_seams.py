@@ -37,11 +37,14 @@ def test_points_between_get_two_springs_with_parametric_rest_lengths():
     a = line([0, 1, 2], [0.0, 0.5, 1.0])  # shorter side: t = 0, 0.5, 1
     b = line([10, 11, 12, 13], [0.0, 0.4, 0.8, 1.2])  # s = 0, 1/3, 2/3, 1; length 1.2
     pairs, rest = match_springs(a, b)
-    L = 0.5 * (1.0 + 1.2)
+    L = 1.0  # the shorter line's length: the longer is gathered to it when sewn
     mid = pairs[:, 0] == 1
     assert sorted(pairs[mid, 1].tolist()) == [11, 12]
     np.testing.assert_allclose(sorted(rest[mid]), sorted([L * (0.5 - 1 / 3), L * (2 / 3 - 0.5)]))
     assert rest[~mid].max() == 0.0  # the ends coincide in parameter
+    # sewn, the gathered side's points 11 and 12 stand 1/3 apart: the point between them
+    # stays on the line (its rest lengths add up to that), not pushed off it
+    assert rest[mid].sum() == pytest.approx(1.0 / 3.0)
 
 
 def test_the_seam_gap_is_the_distance_to_the_point_of_equal_parameter():

@@ -9,8 +9,9 @@ are joined by springs:
 * **Parametric matching (Fig. 5b).** Both lines are parametrised by arc length on [0, 1].
   Each point t_i of the line with fewer points is joined to the point s_j of the other
   line with s_j = t_i by a zero-length spring, or, when s_j < t_i < s_j+1, to s_j and
-  s_j+1 with rest lengths L (t_i − s_j) and L (s_j+1 − t_i), L = (L1 + L2)/2 the mean of
-  the two lines' rest lengths.
+  s_j+1 with rest lengths L (t_i − s_j) and L (s_j+1 − t_i), L = min(L1, L2) the length
+  the seam has once sewn (a longer side is gathered to the shorter): the two rest lengths
+  then add up to the gathered segment, and the point stays on the other line.
 
 Everything here is numpy; the builder turns the springs into Taichi fields.
 """
@@ -99,7 +100,10 @@ def match_springs(a: SeamLine, b: SeamLine) -> tuple[np.ndarray, np.ndarray]:
     """
     short, long_ = (a, b) if len(a.particles) <= len(b.particles) else (b, a)
     t, s = short.params, long_.params
-    mean_len = 0.5 * (a.length + b.length)
+    # a point between two of the other line's is held at the distances the seam has once
+    # sewn: the shorter line's length, to which a longer side is gathered (with the mean,
+    # a gathered side's points, closer than their rest lengths, push the point off the line)
+    sewn_len = min(a.length, b.length)
     pairs, rest = [], []
     for i, ti in enumerate(t):
         j = int(np.searchsorted(s, ti))
@@ -112,9 +116,9 @@ def match_springs(a: SeamLine, b: SeamLine) -> tuple[np.ndarray, np.ndarray]:
         else:
             j = min(max(j, 1), len(s) - 1)
             pairs.append((short.particles[i], long_.particles[j - 1]))
-            rest.append(mean_len * (ti - s[j - 1]))
+            rest.append(sewn_len * (ti - s[j - 1]))
             pairs.append((short.particles[i], long_.particles[j]))
-            rest.append(mean_len * (s[j] - ti))
+            rest.append(sewn_len * (s[j] - ti))
     return np.asarray(pairs, np.int64), np.asarray(rest, np.float64)
 
 
