@@ -13,6 +13,7 @@ a failed drape is a row of the table, not the end of the run. ``--jobs 2`` drape
 time with one thread each (the times are then per core). The table goes to
 ``docs/results/garmentcode_TAG.md`` (and ``.json``) and the front views to
 ``docs/garmentcode/TAG.png``; TAG defaults to the body and the edge, e.g. ``mean_all_3cm``.
+Naming designs reruns only those: their rows replace theirs in an existing table.
 Flags the script does not know are passed to ``drape`` (``--fabric jersey``).
 """
 
@@ -151,6 +152,18 @@ def main(argv=None) -> int:
               + f"; {time.perf_counter() - t0:.0f} s in all")  # fmt: skip
     RESULTS.mkdir(parents=True, exist_ok=True)
     SHEETS.mkdir(parents=True, exist_ok=True)
+    earlier = RESULTS / f"garmentcode_{TAG}.json"
+    if args.specs and earlier.is_file():  # the designs not named keep their earlier rows
+        done = {r["spec"] for r in rows}
+        old = json.loads(earlier.read_text())
+        rows = sorted(rows + [r for r in old["designs"] if r["spec"] not in done],
+                      key=lambda r: r["spec"])  # fmt: skip
+        header += (
+            "; rows of "
+            + ", ".join(sorted(done))
+            + " rerun, the others from: "
+            + (old["settings"].split(";")[0])
+        )
     (RESULTS / f"garmentcode_{TAG}.md").write_text(_table(rows, header))
     (RESULTS / f"garmentcode_{TAG}.json").write_text(json.dumps(
         {"settings": header, "designs": [{k: v for k, v in r.items() if k != "front"}
@@ -159,8 +172,11 @@ def main(argv=None) -> int:
 
     from sandbox.garment.gallery import write_sheet
 
-    tiles = [(r["spec"], iio.imread(r["front"])[:, :, :3] if r.get("front") and
-              Path(r["front"]).is_file() else None) for r in rows]  # fmt: skip
+    def front(r):
+        path = r.get("front") or (str(out / r["spec"] / "drape" / "render.png"))
+        return iio.imread(path)[:, :, :3] if Path(path).is_file() else None
+
+    tiles = [(r["spec"], front(r)) for r in rows]
     write_sheet(SHEETS / f"{TAG}.png", tiles)
     print(f"wrote {RESULTS / f'garmentcode_{TAG}.md'} and {SHEETS / f'{TAG}.png'}")
     return 0

@@ -145,3 +145,39 @@ def test_an_import_records_the_arm_pose_it_was_drafted_for():
     angle from the vertical, and a drape without a given pose uses it."""
     body, _ = _both("shirt_mean")
     assert body.meta["arm_angle_deg"] == pytest.approx(90.0 - MEAN_ALL.arm_pose_deg)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("spec", ["hoody_mean", "flare_skirt"])
+def test_garmentcode_examples_meet_the_acceptance_on_their_body(spec, tmp_path):
+    """Two of GarmentCode's examples, imported and draped at 3 cm on the body they were
+    made for (mean_all: size 18 resized, arms at 44.5 deg), meet the drape acceptance
+    (docs/garmentcode.md; all eight: benchmarks/bench_garmentcode.py)."""
+    from sandbox.garment import drape, make_mannequin
+    from sandbox.pattern.garmentcode_body import load_garmentcode_body
+    from sandbox.pattern.spec import save_pattern
+
+    body = load_garmentcode_body(GC / "bodies" / "mean_all.yaml")
+    mannequin = make_mannequin(body.size, body.measurements, arm_angle_deg=body.arm_angle_deg)
+    path = save_pattern(load_garmentcode(GC / f"{spec}_specification.json"), tmp_path / "p.json")
+    res = drape(path, mannequin=mannequin, out_dir=tmp_path / "out", edge_length_m=0.03,
+                render=False, meshes=False, progress=False)  # fmt: skip
+    assert res.metrics["acceptance_failures"] == []
+
+
+def test_cover_passes_are_settings_and_skip_a_drape_that_is_covered():
+    """``RepairConfig.cover_passes`` is a whole number; a drape whose body shows through by
+    no more than the tolerance is returned as it is, without a pass."""
+    from types import SimpleNamespace
+
+    from sandbox.errors import SandboxError
+    from sandbox.garment.config import RepairConfig
+    from sandbox.garment.repair import settle_covered
+
+    with pytest.raises(SandboxError, match="RepairConfig.cover_passes must be a whole number"):
+        RepairConfig(cover_passes=-1)
+    body = SimpleNamespace(closed=True)
+    scene = SimpleNamespace(spec=SimpleNamespace(stop=None),
+                            model=SimpleNamespace(colliders=[body]))  # fmt: skip
+    result = SimpleNamespace(metrics={"body_through_cloth_max_m": 0.9e-3})
+    assert settle_covered(scene, result, RepairConfig(), 1e-3) == (result, [])

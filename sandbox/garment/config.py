@@ -108,12 +108,20 @@ class RepairConfig:
     """Settle a repaired drape with self-collision's seam exclusion narrowed to the seam
     partners alone: the seams are closed by then, and with the partners' mesh neighbours left
     free the panels beside a seam cross again."""
+    cover_passes: int = 2
+    """A drape that ends with the body showing through the cloth deeper than the acceptance
+    allows (``AcceptanceConfig.body_through_m``) has its contact thickened where the body
+    shows (``BodyCollider.cover``, as the window does after a resize) and runs on to the stop
+    rule again (at least ``settle_s``): at most this many passes, 0 switches it off. Not on a
+    coarse-to-fine drape's coarse level, whose shape the fine level settles anyway."""
 
     def __post_init__(self):
         _check_positive("RepairConfig", settle_s=self.settle_s, clearance_m=self.clearance_m)
-        if not (isinstance(self.max_passes, int) and self.max_passes >= 0):
-            raise SandboxError(f"RepairConfig.max_passes must be a whole number >= 0, got "
-                               f"{self.max_passes!r}")  # fmt: skip
+        for name in ("max_passes", "cover_passes"):
+            v = getattr(self, name)
+            if not (isinstance(v, int) and not isinstance(v, bool) and v >= 0):
+                raise SandboxError(f"RepairConfig.{name} must be a whole number >= 0, got "
+                                   f"{v!r}")  # fmt: skip
 
 
 @dataclass(frozen=True)

@@ -126,7 +126,7 @@ def drape_coarse_to_fine(pattern, mannequin, *, fabric=None, edge_length_m: floa
     coarse = build_drape(pattern, mannequin, fabric=fabric, edge_length_m=config.coarse_edge_m,
                          config=coarse_config, contact_edge_m=fine_edge)  # fmt: skip
     coarse_build_s = time.perf_counter() - t0
-    coarse_result = run_drape(coarse, progress=progress)
+    coarse_result = run_drape(coarse, progress=progress, cover=False)
     cm = coarse_result.metrics
     if not cm["converged"]:
         return None, coarse_result, coarse_build_s + cm["total_wall_time_s"]

@@ -3,7 +3,8 @@
 pattern + mannequin -> :func:`~sandbox.garment.build.build_drape` (mesh, place, seams) ->
 :func:`~sandbox.garment.sewing.sew` -> :func:`~sandbox.garment.repair.untangle_state` ->
 :func:`~sandbox.scene.run.run_scene` (the paper's stop rule) ->
-:func:`~sandbox.garment.repair.settle_repaired` -> :func:`~sandbox.garment.metrics.drape_metrics`
+:func:`~sandbox.garment.repair.settle_repaired` -> :func:`~sandbox.garment.repair.settle_covered`
+-> :func:`~sandbox.garment.metrics.drape_metrics`
 -> :func:`~sandbox.garment.output.write_drape`.
 
 The settings of every stage are one :class:`~sandbox.garment.config.DrapeConfig`.
@@ -21,7 +22,7 @@ from sandbox.garment.inputs import make_mannequin, material_for, resolve_pattern
 from sandbox.garment.metrics import drape_metrics
 from sandbox.garment.multilevel import drape_coarse_to_fine
 from sandbox.garment.output import write_drape
-from sandbox.garment.repair import settle_repaired, untangle_state
+from sandbox.garment.repair import settle_covered, settle_repaired, untangle_state
 from sandbox.garment.sewing import sew
 
 
@@ -115,12 +116,15 @@ def _finer(edge_length_m: float | None, pattern, config: DrapeConfig) -> bool:
     return edge < 0.75 * config.coarse_edge_m
 
 
-def run_drape(scene, *, progress: bool | None = None):
+def run_drape(scene, *, progress: bool | None = None, cover: bool = True):
     """Sew, untangle, then drape under gravity to the paper's stop rule (``run_scene``),
-    repairing a drape that ends tangled; the settings are the scene's ``garment.config``.
+    repairing a drape that ends tangled and, with ``cover``, one the body shows through
+    (:func:`~sandbox.garment.repair.settle_covered`); the settings are the scene's
+    ``garment.config``.
 
     The RunResult's metrics get the sewing phase's keys, the untangling passes
-    (``untangle``, ``untangled_pairs``), ``strain_damping_s`` and ``total_wall_time_s``.
+    (``untangle``, ``untangled_pairs``), the cover passes (``cover_passes``),
+    ``strain_damping_s`` and ``total_wall_time_s``.
     """
     from sandbox.scene.run import run_scene
 
@@ -131,7 +135,13 @@ def run_drape(scene, *, progress: bool | None = None):
         repairs.append(untangle_state(scene, "after sewing", config.repair))
     result = run_scene(scene, progress=progress)
     result = settle_repaired(scene, result, repairs, config.repair, progress=progress)
+    covered = []
+    if cover:
+        through = config.acceptance.body_through_m
+        result, covered = settle_covered(scene, result, config.repair, through,
+                                         progress=progress)  # fmt: skip
     result.metrics.update(sewn)
+    result.metrics["cover_passes"] = covered
     result.metrics["untangle"] = repairs
     result.metrics["untangled_pairs"] = sum(r["pairs_before"] - r["pairs_after"] for r in repairs)
     result.metrics["strain_damping_s"] = float(scene.model.strain_damping_s[None])

@@ -96,3 +96,45 @@ def settle_repaired(scene, result, repairs: list, config: RepairConfig, *, progr
             again.metrics[key] += result.metrics[key]
         result = again
     return result
+
+
+def settle_covered(scene, result, config: RepairConfig, body_through_m: float, *,
+                   progress=None):  # fmt: skip
+    """Thicken the contact where the body shows through a drape that ended at rest, and run
+    it on to the stop rule again (:attr:`RepairConfig.cover_passes`).
+
+    While passes are left, the deepest body vertex through the cloth
+    (``body_through_cloth_max_m``) is deeper than ``body_through_m`` [m] and simulated and
+    wall time are left, every closed body collider's contact is thickened where the body
+    shows (:meth:`~sandbox.collision.body.BodyCollider.cover`) and the drape runs on for at
+    least ``config.settle_s``. Returns the last RunResult (step and time counts summed over
+    the runs) and one dict per pass: the body vertices that showed and the deepest [m].
+    """
+    from sandbox.scene.run import run_scene
+
+    stop = scene.spec.stop
+    colliders = [c for c in scene.model.colliders if getattr(c, "closed", False)]
+    passes: list[dict] = []
+    while len(passes) < config.cover_passes and colliders:
+        through = result.metrics.get("body_through_cloth_max_m")
+        if through is None or through <= body_through_m:
+            break
+        sim, wall = result.metrics["sim_time_s"], result.metrics["wall_time_s"]
+        if sim >= stop.time_limit_s - 1e-9 or wall >= stop.wall_limit_s:
+            break  # no time left to settle
+        x = np.asarray(result.positions, np.float64)
+        shows = sum(c.cover(x, scene.model.tri_indices_np) for c in colliders)
+        passes.append({"body_vertices": int(shows), "deepest_m": float(through)})
+        if not shows:
+            break
+        scene.spec = dataclasses.replace(scene.spec, stop=dataclasses.replace(
+            stop, min_time_s=config.settle_s, time_limit_s=stop.time_limit_s - sim,
+            wall_limit_s=stop.wall_limit_s - wall))  # fmt: skip
+        try:
+            again = run_scene(scene, progress=progress)
+        finally:
+            scene.spec = dataclasses.replace(scene.spec, stop=stop)
+        for key in ("steps", "frames", "sim_time_s", "wall_time_s", "compile_time_s"):
+            again.metrics[key] += result.metrics[key]
+        result = again
+    return result, passes
