@@ -112,8 +112,9 @@ def _table(rows: list[dict], header: str) -> str:
             f"| {r['spec']} | {m.get('vertex_count')} | {m.get('fabric')} | {r['wall_s']:.0f} | "
             f"{m.get('sim_time_s', 0):.2f} | {cells} | {_fails(m)} |"
         )
-    lines += ["", f"{met} of {len(rows)} meet the acceptance (docs/drape.md; the columns as "
-              "in docs/gallery/README.md).", ""]  # fmt: skip
+    lines += ["", f"{met} of {len(rows)} meet the acceptance ([drape.md](../drape.md); the "
+              "columns as in the [gallery](../gallery/gallery.md)). Wall times are per drape, "
+              "import and mesh included.", ""]  # fmt: skip
     return "\n".join(lines)
 
 
@@ -130,6 +131,9 @@ def main(argv=None) -> int:
     ap.add_argument("--jobs", type=int, default=1)
     ap.add_argument("--tag", default=None)
     ap.add_argument("--out", type=Path, default=ROOT / "out" / "bench_garmentcode")
+    ap.add_argument("--load", default="", metavar="TEXT",
+                    help="what else ran on the machine meanwhile, for the table's header "
+                    "(its times are then upper bounds)")  # fmt: skip
     args, extra = ap.parse_known_args(argv)  # the rest: flags for `drape`
     args.extra = [a for a in extra if a != "--"]
     who = f"size{args.size}" if args.size else args.body.stem
@@ -149,7 +153,9 @@ def main(argv=None) -> int:
               + f" --jobs {args.jobs}`" + (" -- " + " ".join(args.extra) if args.extra else "")
               + f", on {platform.machine()} with {os.cpu_count()} cores"
               + (f", {args.jobs} drapes at a time on one thread each" if args.jobs > 1 else "")
-              + f"; {time.perf_counter() - t0:.0f} s in all")  # fmt: skip
+              + f"; {time.perf_counter() - t0:.0f} s in all"
+              + (f"; meanwhile the machine also ran {args.load} (the times are upper bounds)"
+                 if args.load else ""))  # fmt: skip
     RESULTS.mkdir(parents=True, exist_ok=True)
     SHEETS.mkdir(parents=True, exist_ok=True)
     earlier = RESULTS / f"garmentcode_{TAG}.json"
