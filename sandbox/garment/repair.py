@@ -69,12 +69,8 @@ def settle_repaired(scene, result, repairs: list, config: RepairConfig, *, progr
     to ``repairs`` and returns the last RunResult, its step and time counts summed over the
     runs.
     """
-    from sandbox.scene.run import run_scene
-
-    stop = scene.spec.stop
     while len(repairs) < config.max_passes and result.metrics["intersecting_triangle_pairs"]:
-        sim, wall = result.metrics["sim_time_s"], result.metrics["wall_time_s"]
-        if sim >= stop.time_limit_s - 1e-9 or wall >= stop.wall_limit_s:
+        if not time_left(scene, result):
             break  # no time left to settle a repair
         repair = untangle_state(scene, "after the drape", config)
         repairs.append(repair)
@@ -85,16 +81,7 @@ def settle_repaired(scene, result, repairs: list, config: RepairConfig, *, progr
             # the seams are closed: keep the untangled panels beside them apart
             collider.set_seam_partners(scene.model.seam_pairs_np, neighbours=False)
             repair["narrowed_seam_exclusion"] = True
-        scene.spec = dataclasses.replace(scene.spec, stop=dataclasses.replace(
-            stop, min_time_s=config.settle_s, time_limit_s=stop.time_limit_s - sim,
-            wall_limit_s=stop.wall_limit_s - wall))  # fmt: skip
-        try:
-            again = run_scene(scene, progress=progress)
-        finally:
-            scene.spec = dataclasses.replace(scene.spec, stop=stop)
-        for key in ("steps", "frames", "sim_time_s", "wall_time_s", "compile_time_s"):
-            again.metrics[key] += result.metrics[key]
-        result = again
+        result = run_on(scene, result, config.settle_s, progress=progress)
     return result
 
 
@@ -110,31 +97,45 @@ def settle_covered(scene, result, config: RepairConfig, body_through_m: float, *
     least ``config.settle_s``. Returns the last RunResult (step and time counts summed over
     the runs) and one dict per pass: the body vertices that showed and the deepest [m].
     """
-    from sandbox.scene.run import run_scene
-
-    stop = scene.spec.stop
     colliders = [c for c in scene.model.colliders if getattr(c, "closed", False)]
     passes: list[dict] = []
     while len(passes) < config.cover_passes and colliders:
         through = result.metrics.get("body_through_cloth_max_m")
         if through is None or through <= body_through_m:
             break
-        sim, wall = result.metrics["sim_time_s"], result.metrics["wall_time_s"]
-        if sim >= stop.time_limit_s - 1e-9 or wall >= stop.wall_limit_s:
+        if not time_left(scene, result):
             break  # no time left to settle
         x = np.asarray(result.positions, np.float64)
         shows = sum(c.cover(x, scene.model.tri_indices_np) for c in colliders)
         passes.append({"body_vertices": int(shows), "deepest_m": float(through)})
         if not shows:
             break
-        scene.spec = dataclasses.replace(scene.spec, stop=dataclasses.replace(
-            stop, min_time_s=config.settle_s, time_limit_s=stop.time_limit_s - sim,
-            wall_limit_s=stop.wall_limit_s - wall))  # fmt: skip
-        try:
-            again = run_scene(scene, progress=progress)
-        finally:
-            scene.spec = dataclasses.replace(scene.spec, stop=stop)
-        for key in ("steps", "frames", "sim_time_s", "wall_time_s", "compile_time_s"):
-            again.metrics[key] += result.metrics[key]
-        result = again
+        result = run_on(scene, result, config.settle_s, progress=progress)
     return result, passes
+
+
+def time_left(scene, result) -> bool:
+    """Whether the drape's stop rule leaves simulated and wall time after ``result``."""
+    stop = scene.spec.stop
+    sim, wall = result.metrics["sim_time_s"], result.metrics["wall_time_s"]
+    return sim < stop.time_limit_s - 1e-9 and wall < stop.wall_limit_s
+
+
+def run_on(scene, result, settle_s: float, *, progress=None):
+    """Run a drape on from where ``result`` ended to the stop rule again, for at least
+    ``settle_s`` [s] and within the simulated and wall time its stop rule has left; returns
+    the new RunResult with the step and time counts of both runs summed."""
+    from sandbox.scene.run import run_scene
+
+    stop = scene.spec.stop
+    sim, wall = result.metrics["sim_time_s"], result.metrics["wall_time_s"]
+    scene.spec = dataclasses.replace(scene.spec, stop=dataclasses.replace(
+        stop, min_time_s=settle_s, time_limit_s=stop.time_limit_s - sim,
+        wall_limit_s=stop.wall_limit_s - wall))  # fmt: skip
+    try:
+        again = run_scene(scene, progress=progress)
+    finally:
+        scene.spec = dataclasses.replace(scene.spec, stop=stop)
+    for key in ("steps", "frames", "sim_time_s", "wall_time_s", "compile_time_s"):
+        again.metrics[key] += result.metrics[key]
+    return again
