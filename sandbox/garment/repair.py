@@ -97,14 +97,14 @@ def settle_covered(scene, result, config: RepairConfig, body_through_m: float, *
     least ``config.settle_s``. Returns the last RunResult (step and time counts summed over
     the runs) and one dict per pass: the body vertices that showed and the deepest [m].
     """
-    colliders = [c for c in scene.model.colliders if getattr(c, "closed", False)]
     passes: list[dict] = []
-    while len(passes) < config.cover_passes and colliders:
+    while len(passes) < config.cover_passes:
         through = result.metrics.get("body_through_cloth_max_m")
         if through is None or through <= body_through_m:
             break
-        if not time_left(scene, result):
-            break  # no time left to settle
+        colliders = [c for c in scene.model.colliders if getattr(c, "closed", False)]
+        if not colliders or not time_left(scene, result):
+            break  # no body to thicken, or no time left to settle
         x = np.asarray(result.positions, np.float64)
         shows = sum(c.cover(x, scene.model.tri_indices_np) for c in colliders)
         passes.append({"body_vertices": int(shows), "deepest_m": float(through)})
