@@ -93,11 +93,11 @@ def _fails(m: dict) -> str:
     return ", ".join(acceptance_failures(m)) or "-"
 
 
-def _table(rows: list[dict], header: str) -> str:
+def _table(rows: list[dict], header: str, tag: str) -> str:
     from sandbox.garment.gallery import ACCEPTANCE_HEAD, acceptance_cells
 
     lines = ["# GarmentCode examples", "", header + ".", "",
-             f"![front views](../garmentcode/{TAG}.png)", "",
+             f"![front views](../garmentcode/{tag}.png)", "",
              "| design | vertices | fabric | wall s | sim s | " + ACCEPTANCE_HEAD + " | fails |",
              "|---|---|---|---|---|" + "---|" * 8]  # fmt: skip
     met = 0
@@ -118,11 +118,7 @@ def _table(rows: list[dict], header: str) -> str:
     return "\n".join(lines)
 
 
-TAG = ""
-
-
 def main(argv=None) -> int:
-    global TAG
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("specs", nargs="*")
     ap.add_argument("--edge-cm", type=float, default=3.0)
@@ -137,8 +133,8 @@ def main(argv=None) -> int:
     args, extra = ap.parse_known_args(argv)  # the rest: flags for `drape`
     args.extra = [a for a in extra if a != "--"]
     who = f"size{args.size}" if args.size else args.body.stem
-    TAG = args.tag or f"{who}_{args.edge_cm:g}cm"
-    out = args.out / TAG
+    tag = args.tag or f"{who}_{args.edge_cm:g}cm"
+    out = args.out / tag
     specs = _specs(args.specs)
     threads = 1 if args.jobs > 1 else None
     t0 = time.perf_counter()
@@ -158,7 +154,7 @@ def main(argv=None) -> int:
                  if args.load else ""))  # fmt: skip
     RESULTS.mkdir(parents=True, exist_ok=True)
     SHEETS.mkdir(parents=True, exist_ok=True)
-    earlier = RESULTS / f"garmentcode_{TAG}.json"
+    earlier = RESULTS / f"garmentcode_{tag}.json"
     if args.specs and earlier.is_file():  # the designs not named keep their earlier rows
         done = {r["spec"] for r in rows}
         old = json.loads(earlier.read_text())
@@ -170,8 +166,8 @@ def main(argv=None) -> int:
             + " rerun, the others from: "
             + (old["settings"].split(";")[0])
         )
-    (RESULTS / f"garmentcode_{TAG}.md").write_text(_table(rows, header))
-    (RESULTS / f"garmentcode_{TAG}.json").write_text(json.dumps(
+    (RESULTS / f"garmentcode_{tag}.md").write_text(_table(rows, header, tag))
+    (RESULTS / f"garmentcode_{tag}.json").write_text(json.dumps(
         {"settings": header, "designs": [{k: v for k, v in r.items() if k != "front"}
                                          for r in rows]}, indent=1, default=str))  # fmt: skip
     import imageio.v3 as iio
@@ -183,8 +179,8 @@ def main(argv=None) -> int:
         return iio.imread(path)[:, :, :3] if Path(path).is_file() else None
 
     tiles = [(r["spec"], front(r)) for r in rows]
-    write_sheet(SHEETS / f"{TAG}.png", tiles)
-    print(f"wrote {RESULTS / f'garmentcode_{TAG}.md'} and {SHEETS / f'{TAG}.png'}")
+    write_sheet(SHEETS / f"{tag}.png", tiles)
+    print(f"wrote {RESULTS / f'garmentcode_{tag}.md'} and {SHEETS / f'{tag}.png'}")
     return 0
 
 
