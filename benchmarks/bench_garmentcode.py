@@ -3,7 +3,7 @@
 Usage:
     python benchmarks/bench_garmentcode.py [SPEC ...] [--edge-cm 3] [--jobs 2]
         [--body tests/data/garmentcode/bodies/mean_all.yaml | --size N] [--tag TAG]
-        [DRAPE FLAGS ...]
+        [--rewrite] [DRAPE FLAGS ...]
 
 Each specification in ``tests/data/garmentcode/`` (or those named, by the part of the file
 name before ``_specification.json``) is imported with ``python -m sandbox import-garmentcode``
@@ -14,7 +14,8 @@ time with one thread each (the times are then per core). The table goes to
 ``docs/results/garmentcode_TAG.md`` (and ``.json``) and the front views to
 ``docs/garmentcode/TAG.png``; TAG defaults to the body and the edge, e.g. ``mean_all_3cm``.
 Naming designs reruns only those: their rows replace theirs in an existing table.
-Flags the script does not know are passed to ``drape`` (``--fabric jersey``).
+Flags the script does not know are passed to ``drape`` (``--fabric jersey``). ``--rewrite``
+rewrites a table from its JSON without draping.
 """
 
 from __future__ import annotations
@@ -93,28 +94,50 @@ def _fails(m: dict) -> str:
     return ", ".join(acceptance_failures(m)) or "-"
 
 
+def _fit(m: dict) -> str:
+    """The levels where the pattern is short of the body before the drape (the fit check's
+    warnings, ``metrics["fit"]``), e.g. ``"hip 99.1 < 103.5 cm"``; "-" where it fits."""
+    short = [f"{f['level']} {f['garment_cm']:.1f} < {f['body_cm']:.1f} cm"
+             for f in m.get("fit", []) if not f.get("fits", True)]  # fmt: skip
+    return ", ".join(short) or "-"
+
+
+def _ease(m: dict) -> str:
+    """Ease at the bust, waist and hip after the drape [cm] (garment girth minus body girth:
+    a design too large for the body shows here), "–" where the garment does not reach."""
+    out = []
+    for level in ("bust", "waist", "hip"):
+        e = m.get(f"ease_{level}_cm")
+        out.append("–" if e is None else f"{e:+.1f}")
+    return " / ".join(out)
+
+
 def _table(rows: list[dict], header: str, tag: str) -> str:
     from sandbox.garment.gallery import ACCEPTANCE_HEAD, acceptance_cells
 
     lines = ["# GarmentCode examples", "", header + ".", "",
              f"![front views](../garmentcode/{tag}.png)", "",
-             "| design | vertices | fabric | wall s | sim s | " + ACCEPTANCE_HEAD + " | fails |",
-             "|---|---|---|---|---|" + "---|" * 8]  # fmt: skip
+             "| design | vertices | fabric | wall s | sim s | " + ACCEPTANCE_HEAD
+             + " | fails | ease bust / waist / hip (cm) | short of the body |",
+             "|---|---|---|---|---|" + "---|" * 10]  # fmt: skip
     met = 0
     for r in rows:
         if "error" in r:
-            lines.append(f"| {r['spec']} | failed: {r['error']} |" + " |" * 11)
+            lines.append(f"| {r['spec']} | failed: {r['error']} |" + " |" * 13)
             continue
         m = r["metrics"]
         met += bool(m.get("meets_acceptance"))
         cells = acceptance_cells(m)
         lines.append(
             f"| {r['spec']} | {m.get('vertex_count')} | {m.get('fabric')} | {r['wall_s']:.0f} | "
-            f"{m.get('sim_time_s', 0):.2f} | {cells} | {_fails(m)} |"
+            f"{m.get('sim_time_s', 0):.2f} | {cells} | {_fails(m)} | {_ease(m)} | {_fit(m)} |"
         )
     lines += ["", f"{met} of {len(rows)} meet the acceptance ([drape.md](../drape.md); the "
               "columns as in the [gallery](../gallery/gallery.md)). Wall times are per drape, "
-              "import and mesh included.", ""]  # fmt: skip
+              "import and mesh included. Ease: the garment's girth less the body's after the "
+              "drape. The last column: where the pattern's girth is short of "
+              "the body's before the drape, by more than its fabric stretches (the fit "
+              "check's warning, [drape.md](../drape.md)).", ""]  # fmt: skip
     return "\n".join(lines)
 
 
@@ -130,10 +153,17 @@ def main(argv=None) -> int:
     ap.add_argument("--load", default="", metavar="TEXT",
                     help="what else ran on the machine meanwhile, for the table's header "
                     "(its times are then upper bounds)")  # fmt: skip
+    ap.add_argument("--rewrite", action="store_true",
+                    help="rewrite the table from its JSON (no drapes)")  # fmt: skip
     args, extra = ap.parse_known_args(argv)  # the rest: flags for `drape`
     args.extra = [a for a in extra if a != "--"]
     who = f"size{args.size}" if args.size else args.body.stem
     tag = args.tag or f"{who}_{args.edge_cm:g}cm"
+    if args.rewrite:
+        old = json.loads((RESULTS / f"garmentcode_{tag}.json").read_text())
+        (RESULTS / f"garmentcode_{tag}.md").write_text(_table(old["designs"], old["settings"], tag))
+        print(f"wrote {RESULTS / f'garmentcode_{tag}.md'}")
+        return 0
     out = args.out / tag
     specs = _specs(args.specs)
     threads = 1 if args.jobs > 1 else None
