@@ -182,12 +182,17 @@ def _add_drape_parsers(sub) -> None:
     add_measurement_flags(p)
     p.add_argument("--garmentcode-body", type=Path, default=None, metavar="YAML",
                    help="size the mannequin from a GarmentCode body file (its bust, waist, "
-                   "hips and nape-to-waist, its arm pose; the rest from the closest size; "
-                   "docs/garmentcode.md); not with --size or measurement flags")  # fmt: skip
+                   "hips and nape-to-waist, its arm pose, its head; the rest from the "
+                   "closest size; docs/garmentcode.md); not with --size or measurement "
+                   "flags")  # fmt: skip
     p.add_argument("--arm-angle", type=float, default=None, metavar="DEG",
                    help="the mannequin's arms at this angle from the vertical, 16-55 "
                    "(default: 16, opened until they clear the torso; with "
                    "--garmentcode-body, the body file's arm pose)")  # fmt: skip
+    p.add_argument("--head-cm", type=float, default=None, metavar="CM",
+                   help="a head on the mannequin, its crown this far above the nape, 18-35 "
+                   "(default: none, or the body file's head_l with --garmentcode-body, or "
+                   "the pattern's meta.head_length_cm: what a hood rests on)")  # fmt: skip
     p.add_argument("--fabric", default=None, help="fabric preset (default: the garment's own)")
     p.add_argument("--edge-cm", type=float, default=None,
                    help="mesh edge length in cm (default 1; 3 with --integrator "
@@ -332,6 +337,8 @@ def cmd_drape(args) -> int:
         args.size, measurements = body.size, dict(body.measurements)
         if args.arm_angle is None:
             args.arm_angle = body.arm_angle_deg
+        if args.head_cm is None:
+            args.head_cm = body.head_length_cm
         if not args.quiet:
             print(
                 f"{body.source}: size {body.size} resized to "
@@ -342,15 +349,11 @@ def cmd_drape(args) -> int:
                 print(f"  {note}")
     preflight.check_drape(args)
     runtime.init(args.arch, float64=args.float64)
-    mannequin = None
-    if args.arm_angle is not None:
-        from sandbox.garment import make_mannequin
-
-        mannequin = make_mannequin(args.size, measurements or None, arm_angle_deg=args.arm_angle)
     res = drape(args.garment, size=args.size, measurements=measurements or None,
                 fabric=args.fabric, out_dir=args.out, edge_length_m=args.edge_cm / 100.0,
                 config=config, render=not args.no_render, meshes=not args.no_meshes,
-                progress=None if not args.quiet else False, mannequin=mannequin)  # fmt: skip
+                progress=None if not args.quiet else False, arm_angle_deg=args.arm_angle,
+                head_length_cm=args.head_cm)  # fmt: skip
     if not args.quiet:
         m = res.metrics
         state = "converged" if m["converged"] else f"stopped ({m['stop_reason']})"

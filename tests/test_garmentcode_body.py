@@ -25,6 +25,10 @@ def test_the_default_body_maps_onto_size_18_with_its_girths():
     assert body.arm_angle_deg == pytest.approx(90.0 - 45.483)
     assert any(n.startswith("arms at 44.517 deg from the vertical") for n in body.notes)
     assert not any("arm_pose_angle" in n and "no counterpart" in n for n in body.notes)
+    # its head: the crown head_l above the nape
+    assert body.head_length_cm == pytest.approx(26.3262)
+    assert any(n.startswith("a head, its crown 26.3262 cm above the nape") for n in body.notes)
+    assert not any("head_l" in n and "no counterpart" in n for n in body.notes)
 
 
 def test_a_posed_mannequin_keeps_its_measurements_and_its_pose():

@@ -145,6 +145,34 @@ def test_an_import_records_the_arm_pose_it_was_drafted_for():
     angle from the vertical, and a drape without a given pose uses it."""
     body, _ = _both("shirt_mean")
     assert body.meta["arm_angle_deg"] == pytest.approx(90.0 - MEAN_ALL.arm_pose_deg)
+    assert body.meta["head_length_cm"] == pytest.approx(MEAN_ALL.head_cm)  # a hood rests on it
+
+
+def test_a_hood_wraps_the_head_and_leaves_the_bodice_its_half_turn():
+    """The hood's panels (left and right, above the neck) do not share the turn round the
+    torso with the bodice's front and back below them: every panel starts at its clearance
+    (2 cm) from the body, the hood round the head."""
+    import open3d as o3d
+
+    from sandbox.garment import make_mannequin
+    from sandbox.pattern.panel_mesh import mesh_pattern
+    from sandbox.pattern.placement.place import place_pattern
+
+    pattern, _ = _both("hoody_mean")
+    man = make_mannequin(18, arm_angle_deg=pattern.meta["arm_angle_deg"],
+                         head_length_cm=pattern.meta["head_length_cm"])  # fmt: skip
+    placed = place_pattern(pattern, mesh_pattern(pattern, 0.03), man)
+    scene = o3d.t.geometry.RaycastingScene()
+    scene.add_triangles(o3d.core.Tensor(man.vertices.astype(np.float32)),
+                        o3d.core.Tensor(man.triangles.astype(np.uint32)))  # fmt: skip
+    head = len(man.triangles) - 1280  # the head's triangles come last
+    for name, x in placed.items():
+        q = o3d.core.Tensor(x.astype(np.float32))
+        d = scene.compute_distance(q).numpy()
+        assert d.min() > 0.019 and np.median(d) < 0.08, (name, d.min(), np.median(d))
+        if "hood" in name:
+            nearest = scene.compute_closest_points(q)["primitive_ids"].numpy()
+            assert (nearest >= head).mean() > 0.8, name
 
 
 @pytest.mark.slow
@@ -181,3 +209,17 @@ def test_cover_passes_are_settings_and_skip_a_drape_that_is_covered():
                             model=SimpleNamespace(colliders=[body]))  # fmt: skip
     result = SimpleNamespace(metrics={"body_through_cloth_max_m": 0.9e-3})
     assert settle_covered(scene, result, RepairConfig(), 1e-3) == (result, [])
+
+
+def test_a_bad_body_meta_is_named(tmp_path):
+    """A pattern's ``meta.head_length_cm`` (or ``arm_angle_deg``) that is not a number is
+    refused naming the file and the key, before anything is built."""
+    from sandbox.errors import SandboxError
+    from sandbox.garment import drape
+    from sandbox.pattern.spec import save_pattern
+
+    pattern, _ = _both("hoody_mean")
+    pattern.meta["head_length_cm"] = "tall"
+    path = save_pattern(pattern, tmp_path / "p.json")
+    with pytest.raises(SandboxError, match=r"meta\.head_length_cm: 'tall' is not a number"):
+        drape(path, out_dir=tmp_path / "out", edge_length_m=0.03, render=False, meshes=False)

@@ -60,20 +60,23 @@ def resolve_pattern(garment_or_path, mannequin=None):
 
 
 def make_mannequin(size: int | None = None, measurements: dict | None = None,
-                   arm_angle_deg: float | None = None):  # fmt: skip
+                   arm_angle_deg: float | None = None,
+                   head_length_cm: float | None = None):  # fmt: skip
     """The mannequin for a drape: a database size (default 12), resized by any
     measurements given in cm (keys of :data:`sandbox.mannequin.KEYS`), its arms at
-    ``arm_angle_deg`` from the vertical (default: the A-pose)."""
+    ``arm_angle_deg`` from the vertical (default: the A-pose), with a head whose crown is
+    ``head_length_cm`` above the nape (default: none)."""
     from sandbox.mannequin import build_mannequin
     from sandbox.mannequin.cli import FLAGS
     from sandbox.mannequin.measurements import size_entry
 
     given = {k: float(v) for k, v in (measurements or {}).items() if v is not None}
     if not given:
-        return build_mannequin(size=size if size is not None else 12, arm_angle_deg=arm_angle_deg)
+        return build_mannequin(size=size if size is not None else 12, arm_angle_deg=arm_angle_deg,
+                               head_length_cm=head_length_cm)  # fmt: skip
     base = size_entry(size if size is not None else 12).measurements
     return build_mannequin(base.replace(**given), size=size, flag_names=FLAGS,
-                           arm_angle_deg=arm_angle_deg)  # fmt: skip
+                           arm_angle_deg=arm_angle_deg, head_length_cm=head_length_cm)  # fmt: skip
 
 
 def material_for(pattern, fabric=None):

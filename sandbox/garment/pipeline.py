@@ -12,9 +12,11 @@ The settings of every stage are one :class:`~sandbox.garment.config.DrapeConfig`
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 
+from sandbox.errors import SandboxError
 from sandbox.garment.build import build_drape, check_drape_size
 from sandbox.garment.config import DrapeConfig
 from sandbox.garment.fit import check_fit
@@ -49,12 +51,16 @@ def drape(
     meshes: bool = True,
     progress: bool | None = None,
     mannequin=None,
+    arm_angle_deg: float | None = None,
+    head_length_cm: float | None = None,
 ) -> DrapeResult:
     """Drape a garment (library name, pattern file or dict) on a mannequin and write it.
 
     The mannequin is ``mannequin`` if given, else the database ``size`` (default 12)
-    resized by ``measurements`` (cm), its arms posed as the pattern's ``meta.arm_angle_deg``
-    says if it does (GarmentCode's imports). ``config`` holds every setting of the simulation,
+    resized by ``measurements`` (cm), its arms at ``arm_angle_deg`` from the vertical (else as
+    the pattern's ``meta.arm_angle_deg`` says, if it does), with a head ``head_length_cm``
+    from nape to crown (else as its ``meta.head_length_cm`` asks; GarmentCode's imports
+    record both: a hood rests on the head). ``config`` holds every setting of the simulation,
     the sewing, the repair and the acceptance (default :class:`DrapeConfig`). Writes into
     ``out_dir``: ``garment.obj`` / ``garment.ply`` (UVs = pattern coordinates [m]),
     ``body.obj``, ``render.png`` (front), ``render_back.png`` and ``metrics.json``
@@ -63,12 +69,17 @@ def drape(
     """
     made = mannequin is None
     if made:
-        mannequin = make_mannequin(size, measurements)
+        mannequin = make_mannequin(size, measurements, arm_angle_deg=arm_angle_deg,
+                                   head_length_cm=head_length_cm)  # fmt: skip
     pattern = resolve_pattern(garment_or_path, mannequin)
-    pose = pattern.meta.get("arm_angle_deg")
-    if made and pose is not None and abs(pose - (mannequin.arm_angle_deg or 0.0)) > 1e-6:
-        # the pattern was drafted for arms in this pose (a GarmentCode import)
-        mannequin = make_mannequin(size, measurements, arm_angle_deg=float(pose))
+    pose = _meta_number(pattern, "arm_angle_deg") if arm_angle_deg is None else None
+    head = _meta_number(pattern, "head_length_cm") if head_length_cm is None else None
+    if made and (pose is not None or head is not None):
+        # the pattern was drafted for a body in this pose, with a head (GarmentCode's imports)
+        mannequin = make_mannequin(
+            size, measurements,
+            arm_angle_deg=arm_angle_deg if pose is None else pose,
+            head_length_cm=head_length_cm if head is None else head)  # fmt: skip
     config = config or DrapeConfig()
     fit = check_fit(pattern, mannequin, material_for(pattern, fabric), config.fit)
     # refused before the coarse level runs (build_drape checks each level again)
@@ -94,6 +105,17 @@ def drape(
     metrics["fit"] = [f.as_dict() for f in fit]
     paths = write_drape(scene, result, metrics, out_dir, render=render, meshes=meshes)
     return DrapeResult(scene, result, metrics, paths)
+
+
+def _meta_number(pattern, key: str) -> float | None:
+    """A number from the pattern's ``meta`` (None when absent); SandboxError naming the file
+    and the key for anything else."""
+    v = pattern.meta.get(key)
+    if v is None:
+        return None
+    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+        raise SandboxError(f"{pattern.source}: meta.{key}: {v!r} is not a number")
+    return float(v)
 
 
 def _coarse_fallback(coarse_metrics: dict, coarse_wall_s: float) -> dict:

@@ -68,6 +68,9 @@ class Mannequin:
     size: int | None
     resolution: int
     shape: BodyShape | None
+    head_length_cm: float | None = None
+    """The head's crown above the nape [cm] (:mod:`sandbox.mannequin.head`); None: no head,
+    the neck ends in a cap."""
 
     @property
     def arm_angle_deg(self) -> float | None:
@@ -78,7 +81,8 @@ class Mannequin:
     def resize(self, measurements: Measurements) -> Mannequin:
         """§2.1.4 on the same structure: new vertex positions, same triangles, same pose."""
         return build_mannequin(measurements, resolution=self.resolution or DEFAULT_RESOLUTION,
-                               arm_angle_deg=self.arm_angle_deg)  # fmt: skip
+                               arm_angle_deg=self.arm_angle_deg,
+                               head_length_cm=self.head_length_cm)  # fmt: skip
 
     def measure(self) -> dict[str, float]:
         """The tape measure on this mesh, with its own landmarks [cm]."""
@@ -97,15 +101,25 @@ def build_mannequin(
     resolution: int = DEFAULT_RESOLUTION,
     flag_names: dict[str, str] | None = None,
     arm_angle_deg: float | None = None,
+    head_length_cm: float | None = None,
 ) -> Mannequin:
     """Build a mannequin from measurements [cm] and/or a database size.
 
     With only ``size``, the stored size; with ``measurements``, §2.1.4 from the closest
     size (or from ``size`` if given). ``arm_angle_deg``: the arms' angle from the vertical
     (within :data:`ARM_ANGLE_RANGE_DEG`; default the A-pose's 16°, opened further until
-    the arms clear the torso). Raises :class:`SandboxError` for out-of-range or
-    contradictory measurements or an arm angle out of range.
+    the arms clear the torso). ``head_length_cm``: a head on the neck, its crown this far
+    above the nape (within :data:`~sandbox.mannequin.head.HEAD_LENGTH_RANGE_CM`; default
+    none). Raises :class:`SandboxError` for out-of-range or contradictory measurements, or
+    an arm angle or head length out of range.
     """
+    from sandbox.mannequin.head import HEAD_LENGTH_RANGE_CM
+
+    if head_length_cm is not None:
+        lo, hi = HEAD_LENGTH_RANGE_CM
+        if not (lo <= float(head_length_cm) <= hi):
+            raise SandboxError(f"head length {head_length_cm!r} cm: the mannequin's head "
+                               f"can be {lo:g}-{hi:g} cm from nape to crown")  # fmt: skip
     if arm_angle_deg is not None:
         lo, hi = ARM_ANGLE_RANGE_DEG
         if not (lo <= float(arm_angle_deg) <= hi):
@@ -118,23 +132,32 @@ def build_mannequin(
     else:
         validate(measurements, flag_names=flag_names)
         entry = closest_size(measurements, table) if size is None else size_entry(size, table)
-    return _build(measurements, entry, resolution, arm_angle_deg)
+    return _build(measurements, entry, resolution, arm_angle_deg, head_length_cm)
 
 
 def _build(target: Measurements, entry: SizeEntry, resolution: int,
-           arm_angle_deg: float | None = None) -> Mannequin:  # fmt: skip
+           arm_angle_deg: float | None = None,
+           head_length_cm: float | None = None) -> Mannequin:  # fmt: skip
     st = _structure(resolution)
     s = fit_shape(st.template, st.corrector, target, entry)
     if arm_angle_deg is not None:  # the arms only: the torso's measurements stay
         s = s.copy(arm_angle=math.radians(float(arm_angle_deg)))
     v = st.template.evaluate(s)
+    faces = st.template.faces
+    if head_length_cm is not None:  # a closed surface of its own, after the body's
+        from sandbox.mannequin.head import head_mesh
+
+        hv, hf = head_mesh(s, float(head_length_cm) / 100.0)
+        faces = np.concatenate([faces, hf + len(v)])
+        v = np.concatenate([v, hv])
     return Mannequin(
         vertices=v,
-        triangles=st.template.faces,
+        triangles=faces,
         landmarks={k: v[i].copy() for k, i in st.landmarks.items()},
         feature_lines={k: v[i] for k, i in st.feature_lines.items()},
         measurements_requested=target,
         size=entry.size,
         resolution=resolution,
         shape=s,
+        head_length_cm=None if head_length_cm is None else float(head_length_cm),
     )

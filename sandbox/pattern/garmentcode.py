@@ -44,6 +44,7 @@ from sandbox.pattern.garmentcode_place import (
     GarmentCodeLevels,
     arm_angle_from_pose,
     body_placements,
+    head_length_from,
 )
 from sandbox.pattern.mesh2d import polygon_area
 from sandbox.pattern.spec import (
@@ -255,6 +256,8 @@ def garmentcode_to_dict(
         "placement": placement,
         # the arms the design was drafted for, from the vertical: drape poses the mannequin
         "arm_angle_deg": arm_angle_from_pose(levels.arm_pose_deg),
+        # the body it was drafted on has a head (a hood rests on it): drape gives it one
+        "head_length_cm": head_length_from(levels.head_cm),
     }
     if placement == "body":
         kept = []

@@ -74,6 +74,9 @@ class GarmentCodeBody:
     arm_angle_deg: float | None = None
     """The arms' angle from the vertical [deg]: 90 - ``arm_pose_angle`` (GarmentCode's is
     below the horizontal), moved into the mannequin's range; None without one."""
+    head_length_cm: float | None = None
+    """The head's crown above the nape [cm]: ``head_l`` moved into the mannequin's range
+    (:data:`~sandbox.mannequin.head.HEAD_LENGTH_RANGE_CM`); None without one."""
 
 
 def load_garmentcode_body(path: str | Path) -> GarmentCodeBody:
@@ -131,12 +134,23 @@ def load_garmentcode_body(path: str | Path) -> GarmentCodeBody:
         moved = "" if abs(arm - (90.0 - pose)) < 1e-6 else moved
         notes.append(f"arms at {arm:g} deg from the vertical: arm_pose_angle {pose:g} deg "
                      f"below the horizontal{moved}")  # fmt: skip
-    used = set(DIRECT.values()) | {"shoulder_w", "back_width", "arm_pose_angle"}
+    head = None
+    if "head_l" in body:
+        from sandbox.mannequin.head import HEAD_LENGTH_RANGE_CM
+
+        lo, hi = HEAD_LENGTH_RANGE_CM
+        head_l = number("head_l")
+        head = min(max(head_l, lo), hi)
+        moved = "" if head == head_l else f", moved onto the supported {lo:g}-{hi:g} cm"
+        notes.append(f"a head, its crown {head:g} cm above the nape: head_l {head_l:g} cm"
+                     f"{moved}")  # fmt: skip
+    used = set(DIRECT.values()) | {"shoulder_w", "back_width", "arm_pose_angle", "head_l"}
     rest = sorted(k for k in body if k not in used)
     if rest:
         notes.append("no counterpart (the database size's proportions stand in): "
                      + ", ".join(rest))  # fmt: skip
-    return GarmentCodeBody(str(p), {k: ours[k] for k in KEYS}, nearest.size, tuple(notes), arm)
+    return GarmentCodeBody(str(p), {k: ours[k] for k in KEYS}, nearest.size, tuple(notes), arm,
+                           head)  # fmt: skip
 
 
 def load_garmentcode_levels(path: str | Path):

@@ -43,9 +43,11 @@ from sandbox.pattern.spec import rotation_matrix_xyz_deg
 @dataclass(frozen=True)
 class GarmentCodeLevels:
     """Heights [cm] of a GarmentCode body's levels in its layout frame (floor at y = 0),
-    half its shoulder width [cm] and its arm pose [deg below the horizontal]."""
+    its head length (``head_l``: the crown above the nape) [cm], half its shoulder width
+    [cm] and its arm pose [deg below the horizontal]."""
 
     nape_cm: float
+    head_cm: float
     waist_cm: float
     hips_cm: float
     crotch_cm: float
@@ -59,7 +61,7 @@ class GarmentCodeLevels:
         nape = body["height"] - body["head_l"]
         waist = nape - body["waist_line"]
         hips = waist - body["hips_line"]
-        return cls(nape_cm=nape, waist_cm=waist, hips_cm=hips,
+        return cls(nape_cm=nape, head_cm=body["head_l"], waist_cm=waist, hips_cm=hips,
                    crotch_cm=hips - body.get("crotch_hip_diff", 8.8),
                    shoulder_half_cm=body["shoulder_w"] / 2,
                    arm_pose_deg=body.get("arm_pose_angle", 45.0))  # fmt: skip
@@ -80,6 +82,15 @@ def arm_angle_from_pose(arm_pose_deg: float) -> float:
 
     lo, hi = ARM_ANGLE_RANGE_DEG
     return round(min(max(90.0 - float(arm_pose_deg), lo), hi), 6)
+
+
+def head_length_from(head_l_cm: float) -> float:
+    """The mannequin's head length [cm] (crown above the nape) for GarmentCode's ``head_l``,
+    moved into the mannequin's range (:data:`sandbox.mannequin.head.HEAD_LENGTH_RANGE_CM`)."""
+    from sandbox.mannequin.head import HEAD_LENGTH_RANGE_CM
+
+    lo, hi = HEAD_LENGTH_RANGE_CM
+    return round(min(max(float(head_l_cm), lo), hi), 6)
 
 
 #: a torso panel whose top is this close to the nape [cm] is a bodice, hung from the shoulders

@@ -279,7 +279,8 @@ def _limb_masks(mannequin, v: np.ndarray, lm: dict) -> dict[str, np.ndarray]:
         t = _structure(res).template if res else None
     except Exception:  # noqa: BLE001 - any failure: fall back to geometry
         t = None
-    if t is not None and t.n_vertices == n:
+    if t is not None and (t.n_vertices == n or getattr(mannequin, "head_length_cm", None)):
+        # (a head's vertices follow the template's: torso)
         grids = {"arm_left": t.arm_l_grid, "arm_right": t.arm_r_grid,
                  "leg_left": t.leg_l_grid, "leg_right": t.leg_r_grid}  # fmt: skip
         caps = dict(zip(("yoke", "arm_left", "arm_right", "leg_left", "leg_right"), t.caps,

@@ -19,6 +19,10 @@ class PlacementConfig:
     side_gap_rad: float = 0.14
     """[rad] Angular gap left between the sectors of neighbouring panels (half on each
     side): about 2.8 cm at the waist, so front and back never overlap at the start."""
+    sector_overlap: float = 0.25
+    """[-] Two panels on one body part share the turn round it (each gets the sector up to
+    halfway to the other's side) only where their height spans overlap by more than this
+    fraction of the shorter span; a hood above a bodice wraps the whole turn at its height."""
     row_m: float = 0.01
     """[m] Height spacing of the placement curves; vertices in between are interpolated.
     1 cm follows the body's sections closely at a cost of one hull per row."""

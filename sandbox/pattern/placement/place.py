@@ -135,11 +135,15 @@ def place_pattern(pattern, meshes: dict, mannequin,
         )  # fmt: skip
         for part, names in by_part.items()
     }
-    angles = {}
+    angles, spans = {}, {}
     for part, names in by_part.items():
         frame = body.frame(part, heights[part])
         for n in names:
-            angles[n] = body.side_angle(frame, pattern.panels[n].placement["side"])
+            p = pattern.panels[n].placement
+            angles[n] = body.side_angle(frame, p["side"])
+            y = (body.point(p["landmark"])[1] + meshes[n].points[:, 1]
+                 - float(p["anchor"][1]) * pattern.panels[n].units_to_m)  # fmt: skip
+            spans[n] = (float(y.min()), float(y.max()))
     out = {}
     for name, panel in pattern.panels.items():
         p = panel.placement
@@ -150,7 +154,9 @@ def place_pattern(pattern, meshes: dict, mannequin,
             continue
         part = p.get("body", "torso")
         mine = angles[name]
-        others = [angles[o] for o in by_part[part] if abs(_wrap_pi(angles[o] - mine)) > 1e-3]
+        others = [angles[o] for o in by_part[part]
+                  if abs(_wrap_pi(angles[o] - mine)) > 1e-3
+                  and _side_by_side(spans[name], spans[o], cfg)]  # fmt: skip
         if others:
             after = min(np.mod(o - angles[name], 2 * np.pi) for o in others) / 2
             before = min(np.mod(angles[name] - o, 2 * np.pi) for o in others) / 2
@@ -199,6 +205,15 @@ def place_pattern(pattern, meshes: dict, mannequin,
             chosen, greedy, c_greedy = chosen | {name}, trial, c
     greedy, c_greedy = untangled(greedy, c_greedy)
     return greedy if c_greedy < count else best
+
+
+def _side_by_side(a: tuple[float, float], b: tuple[float, float], cfg: PlacementConfig) -> bool:
+    """Whether two panels' height spans (lo, hi) [m] overlap by more than
+    ``cfg.sector_overlap`` of the shorter one: only such panels share the turn round the
+    body between them (a hood above a bodice, or a bodice above a skirt, has the whole turn
+    at its own height)."""
+    overlap = min(a[1], b[1]) - max(a[0], b[0])
+    return overlap > cfg.sector_overlap * min(a[1] - a[0], b[1] - b[0])
 
 
 def _wrap_pi(a: float) -> float:
