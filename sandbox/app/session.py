@@ -360,7 +360,8 @@ class Session:
             if not math.isfinite(float(v)):
                 raise SandboxError(f"measurement {k!r} must be a number, got {v!r}")
         merged = {**self.measurements, **{k: float(v) for k, v in cm.items()}}
-        body = make_mannequin(self.size, merged, arm_angle_deg=self.mannequin.arm_angle_deg)
+        body = make_mannequin(self.size, merged, arm_angle_deg=self.mannequin.arm_angle_deg,
+                              head_length_cm=self.mannequin.head_length_cm)  # fmt: skip
         if body.vertices.shape != self.mannequin.vertices.shape:
             raise SandboxError("the resized mannequin has another structure")
         from sandbox.collision.body_probe import follow_body
