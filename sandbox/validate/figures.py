@@ -32,6 +32,9 @@ DEMO = "docs/demo/metrics.json"
 REPORT = "docs/report/report.json"
 BENCH_STEP = "docs/results/bench_step.txt"
 GALLERY_SPEED = "docs/results/gallery_speed_coarse_to_fine.json"
+#: GarmentCode's examples (benchmarks/bench_garmentcode.py): (table tag, what it drapes on)
+GARMENTCODE = (("mean_all_3cm", "3 cm, on the body they were drafted for (mean_all)"),
+               ("size8_3cm", "3 cm, on size 8"), ("size18_3cm", "3 cm, on size 18"))  # fmt: skip
 
 STEP_VERTICES = 16_000
 """The sheet size whose throughput is quoted (the nearest row of the benchmark's table)."""
@@ -112,6 +115,30 @@ def gallery_speed_figures(root: Path) -> list[Figure]:
         Figure(f"{label}: the same rest shape as the direct 1 cm reference?", shape, command,
                GALLERY_SPEED),
     ]  # fmt: skip
+
+
+def garmentcode_figures(root: Path) -> list[Figure]:
+    """How many of GarmentCode's example designs meet the acceptance, per body, and the wall
+    time per design (benchmarks/bench_garmentcode.py's tables)."""
+    out = []
+    for tag, label in GARMENTCODE:
+        rel = f"docs/results/garmentcode_{tag}.json"
+        rows = _read_json(root, rel).get("designs")
+        if not rows:
+            raise SandboxError(f"{rel}: no designs")
+        done = [r for r in rows if "error" not in r]
+        passed = sum(bool(r["metrics"].get("meets_acceptance")) for r in done)
+        times = _seconds([float(r["wall_s"]) for r in done]) if done else "-"
+        body = "--body tests/data/garmentcode/bodies/mean_all.yaml" if tag.startswith(
+            "mean_all") else f"--size {tag[4:].split('_')[0]}"  # fmt: skip
+        command = f"python benchmarks/bench_garmentcode.py {body} --jobs 2"
+        every = len(list((root / "tests" / "data" / "garmentcode").glob("*_specification.json")))
+        if len(rows) < every:  # the designs it drapes are named
+            command += " " + " ".join(sorted(r["spec"] for r in rows))
+        out.append(Figure(f"GarmentCode's example designs, {label}: designs that meet the "
+                          "acceptance; wall time per design",
+                          f"{passed} of {len(rows)}; {times}", command, rel))  # fmt: skip
+    return out
 
 
 def demo_figure(root: Path) -> Figure:
@@ -244,6 +271,7 @@ def figures(root: Path | str = ".") -> list[Figure]:
         *gallery_figures(root, GALLERY_IMPLICIT, "Gallery, 3 cm, size 12, implicit Euler",
                          "python -m sandbox gallery --integrator implicit_euler --jobs 2 "
                          "--out docs/gallery-implicit"),
+        *garmentcode_figures(root),
         demo_figure(root),
         *cantilever_figures(root),
         *contact_figure(root),
