@@ -1,6 +1,7 @@
 """Coarse to fine (sandbox/garment/multilevel.py): locating fine vertices in a coarse mesh,
 carrying positions, the method's settings and a whole drape."""
 
+import dataclasses
 from types import SimpleNamespace
 
 import numpy as np
@@ -8,7 +9,7 @@ import pytest
 
 from sandbox.errors import SandboxError
 from sandbox.garment import DrapeConfig
-from sandbox.garment.multilevel import barycentric_locate, carry, panel_maps
+from sandbox.garment.multilevel import _layers_crossed, barycentric_locate, carry, panel_maps
 from sandbox.sim.inertia import scaled_inertia
 
 
@@ -63,10 +64,23 @@ def test_an_affine_drape_is_carried_exactly():
     ({"fine_residual_mean": 0.0}, "fine_residual_mean"),
     ({"seam_damping_ratio": 1.5}, "seam_damping_ratio"),
     ({"fine_inertia_scale": 0.5}, "fine_inertia_scale"),
+    ({"coarse_tangled_fraction": 0.0}, "coarse_tangled_fraction"),
 ])  # fmt: skip
 def test_bad_settings_are_named(change, needle):
     with pytest.raises(SandboxError, match=needle):
         DrapeConfig(**change)
+
+
+def test_a_coarse_level_in_layers_passed_through_itself_is_draped_again():
+    """Crossings above the fraction of the triangles, at rest, without cloth contact: redo;
+    a level with contact, one not at rest, or a few crossings: carry on."""
+    scene = SimpleNamespace(model=SimpleNamespace(tri_indices_np=np.zeros((1000, 3), int)))
+    config = DrapeConfig(self_collision=False)  # as the coarse level; 5 % of 1000: 50 pairs
+    at_rest = {"converged": True, "intersecting_triangle_pairs": 51}
+    assert _layers_crossed(at_rest, scene, config)
+    assert not _layers_crossed({**at_rest, "intersecting_triangle_pairs": 50}, scene, config)
+    assert not _layers_crossed({**at_rest, "converged": False}, scene, config)
+    assert not _layers_crossed(at_rest, scene, dataclasses.replace(config, self_collision=True))
 
 
 def _hanging_sheet(damping_per_s: float):

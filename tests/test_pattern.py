@@ -388,20 +388,25 @@ def _point_to_polyline(q, poly):
     return float(np.min(np.linalg.norm(a + t[:, None] * (b - a) - q, axis=1)))
 
 
-def test_panel_mesh_grades_towards_tiny_edges():
-    # a 1 mm edge (GarmentCode patterns have such) between 20 cm edges, and a cubic hem
+def _tiny_edge_panel(tiny_cm: float):
+    """A panel with an edge ``tiny_cm`` long (#3) between 20 cm edges, and a cubic hem."""
     d = {
         "format": "sandbox-pattern/1",
         "panels": {
             "p": {
-                "vertices": [[0, 0], [40, 0], [40, 50], [20.1, 50], [20, 50], [0, 50]],
+                "vertices": [[0, 0], [40, 0], [40, 50], [20 + tiny_cm, 50], [20, 50], [0, 50]],
                 "edges": [{"name": "hem", "from": 0, "to": 1,
                            "curve": {"type": "cubic", "controls": [[10, -5], [30, -5]]}}]
                 + [{"from": i, "to": (i + 1) % 6} for i in range(1, 6)],
             }
         },
     }  # fmt: skip
-    panel = load_pattern(d).panels["p"]
+    return load_pattern(d).panels["p"]
+
+
+def test_panel_mesh_grades_towards_tiny_edges():
+    # a 5 mm edge (GarmentCode patterns have such), a quarter of the mesh edge
+    panel = _tiny_edge_panel(0.5)
     h = 0.02
     m = mesh_panel(panel, h)
     assert min_angle_deg(m.points, m.triangles) >= 25.0
@@ -416,11 +421,33 @@ def test_panel_mesh_grades_towards_tiny_edges():
         assert seg.max() <= h * (1 + 1e-6)
     # next to the tiny edge the segments grow gradually (at most ~20 % + rounding)
     seg = np.linalg.norm(np.diff(m.points[m.edge_vertices[2]], axis=0), axis=1)
-    assert seg[-1] < 0.0015 and np.all(seg[:-1] / seg[1:] < 1.35)
+    assert seg[-1] < 0.0065 and np.all(seg[:-1] / seg[1:] < 1.35)
     along = set()
     for idx in m.edge_vertices:
         along |= {tuple(sorted(x)) for x in zip(idx[:-1], idx[1:], strict=True)}
     assert along == _boundary_edges(m.triangles)
+
+
+def test_panel_mesh_collapses_edges_far_shorter_than_the_mesh():
+    # a 1 mm edge at a 2 cm mesh: one vertex, no fan of millimetre triangles round it
+    panel = _tiny_edge_panel(0.1)
+    h = 0.02
+    m = mesh_panel(panel, h)
+    tiny = m.edge_vertices[3]
+    assert len(tiny) == 2 and tiny[0] == tiny[1]  # both corners are one vertex
+    assert np.allclose(m.points[tiny[0]], [0.2, 0.5])  # at the edge's end (20, 50 cm)
+    assert m.edge_vertices[2][-1] == tiny[0] and m.edge_vertices[4][0] == tiny[0]
+    assert min_angle_deg(m.points, m.triangles) >= 25.0
+    seg = np.linalg.norm(np.diff(m.points[m.edge_vertices[2]], axis=0), axis=1)
+    assert seg.min() > 0.25 * h  # its neighbours are not graded towards it
+    along = set()
+    for idx in m.edge_vertices:
+        along |= {tuple(sorted(x)) for x in zip(idx[:-1], idx[1:], strict=True) if x[0] != x[1]}
+    assert along == _boundary_edges(m.triangles)
+    assert len(mesh_panel(panel, 0.004).edge_vertices[3]) == 2  # resolved on a fine mesh
+    assert (
+        mesh_panel(panel, 0.004).edge_vertices[3][0] != mesh_panel(panel, 0.004).edge_vertices[3][1]
+    )
 
 
 def test_seam_sides_build_springs():

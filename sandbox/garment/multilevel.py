@@ -17,6 +17,7 @@ drape) -> ``build_drape`` at the requested edge -> :func:`transfer_positions` ->
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
 import time
 
@@ -26,6 +27,8 @@ from sandbox.garment.build import build_drape
 from sandbox.scene.build import retime
 from sandbox.sim.inertia import scaled_inertia
 from sandbox.sim.stability import measured_stable_dt
+
+log = logging.getLogger(__name__)
 
 
 def barycentric_locate(points: np.ndarray, uv: np.ndarray, triangles: np.ndarray,
@@ -128,6 +131,23 @@ def drape_coarse_to_fine(pattern, mannequin, *, fabric=None, edge_length_m: floa
     coarse_build_s = time.perf_counter() - t0
     coarse_result = run_drape(coarse, progress=progress, cover=False)
     cm = coarse_result.metrics
+    redrape = None
+    if _layers_crossed(cm, coarse, coarse_config):
+        # layered cloth passed through itself: drape the coarse level again with contact
+        redrape = {"crossing_pairs": cm["intersecting_triangle_pairs"],
+                   "wall_time_s": time.perf_counter() - t0}  # fmt: skip
+        log.info("coarse level: %d crossing triangle pairs at rest (of %d triangles): "
+                 "draped again with cloth-cloth contact", redrape["crossing_pairs"],
+                 len(coarse.model.tri_indices_np))  # fmt: skip
+        coarse_config = dataclasses.replace(
+            coarse_config, self_collision=True,
+            sewing=dataclasses.replace(coarse_config.sewing, self_collision=True))  # fmt: skip
+        t0 = time.perf_counter()
+        coarse = build_drape(pattern, mannequin, fabric=fabric, edge_length_m=config.coarse_edge_m,
+                             config=coarse_config, contact_edge_m=fine_edge)  # fmt: skip
+        coarse_build_s = time.perf_counter() - t0 + redrape["wall_time_s"]
+        coarse_result = run_drape(coarse, progress=progress, cover=False)
+        cm = coarse_result.metrics
     if not cm["converged"]:
         return None, coarse_result, coarse_build_s + cm["total_wall_time_s"]
 
@@ -175,6 +195,7 @@ def drape_coarse_to_fine(pattern, mannequin, *, fabric=None, edge_length_m: floa
         coarse_converged=cm["converged"],
         coarse_wall_time_s=coarse_wall,
         coarse_untangle=cm["untangle"],
+        coarse_redrape=redrape,
         carried_pushed_out=int(pushed),
         fine_sim_time_s=m["sim_time_s"],
         fine_wall_time_s=m["wall_time_s"],
@@ -187,6 +208,15 @@ def drape_coarse_to_fine(pattern, mannequin, *, fabric=None, edge_length_m: floa
         total_wall_time_s=coarse_wall + build_s + m["wall_time_s"],
     )
     return fine, result, coarse_build_s + build_s
+
+
+def _layers_crossed(metrics: dict, scene, config) -> bool:
+    """Whether a coarse level run without cloth-cloth contact came to rest with more of its
+    triangles crossed than ``config.coarse_tangled_fraction`` (layers passed through)."""
+    if config.self_collision or not metrics["converged"]:
+        return False
+    pairs = metrics.get("intersecting_triangle_pairs") or 0
+    return pairs > config.coarse_tangled_fraction * len(scene.model.tri_indices_np)
 
 
 def _settle_fine(fine, config, progress):

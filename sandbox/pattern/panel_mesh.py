@@ -41,6 +41,9 @@ GRADE_BELOW = 0.6
 #: fraction (a longer side is gathered: its own even sampling is kept)
 MATCH_LENGTHS = 0.1
 """Boundary segments grow by at most this fraction per segment away from a tiny edge."""
+COLLAPSE_BELOW = 0.2
+"""An outline edge shorter than this fraction of the mesh edge is not resolved by the mesh:
+its start corner is dropped and its two ends are one vertex (:func:`collapsed_edges`)."""
 MIN_ANGLE_DEG = 28.0
 """Requested minimum angle; Triangle reaches it except next to sharper outline corners."""
 
@@ -101,14 +104,17 @@ def mesh_panel(
                     f"a {edge_length_m * 100:g} cm mesh of this panel")  # fmt: skip
     if samples is None:
         samples = _sample_edges(panel, edge_length_m)
-    boundary = np.vstack([s[:-1] for s in samples])
+    collapsed = collapsed_edges(panel, edge_length_m)
+    # a collapsed edge adds no boundary point: its start is dropped, its end is the next's
+    counts = [0 if c else len(s) - 1 for s, c in zip(samples, collapsed, strict=True)]
+    boundary = np.vstack([s[:n] for s, n in zip(samples, counts, strict=True)])
     nb = len(boundary)
-    owner = np.repeat(np.arange(len(samples)), [len(s) - 1 for s in samples])
+    owner = np.repeat(np.arange(len(samples)), counts)
     _check_boundary(panel, boundary, owner, where)
-    starts = np.cumsum([0] + [len(s) - 1 for s in samples])
+    starts = np.cumsum([0] + counts)
     edge_vertices = []
     for k, s in enumerate(samples):
-        idx = starts[k] + np.arange(len(s))
+        idx = (starts[k] + np.arange(len(s))) % nb
         idx[-1] = starts[k + 1] % nb
         edge_vertices.append(idx.astype(np.int64))
     segments = np.stack([np.arange(nb), (np.arange(nb) + 1) % nb], axis=1)
@@ -185,6 +191,18 @@ def _cm(xy) -> str:
     return f"{xy[0] * 100:.4g}, {xy[1] * 100:.4g} cm"
 
 
+def collapsed_edges(panel: Panel, h: float) -> list[bool]:
+    """For each edge of a panel: True where it is shorter than COLLAPSE_BELOW times the mesh
+    edge ``h`` [m] (GarmentCode's outlines have edges of 1-2 mm where its stitches split an
+    edge). Such an edge would take a fan of millimetre triangles to mesh at the minimum
+    angle, each far lighter and stiffer than the rest (they set the explicit step); instead
+    its two corners are one mesh vertex, at its end: the outline moves by less than the
+    edge's length. A seam along it still sews that vertex. None of an outline's edges
+    collapse if all of them would."""
+    short = [e.length_m < COLLAPSE_BELOW * h for e in panel.edges]
+    return [False] * len(short) if all(short) else short
+
+
 def _sample_edges(panel: Panel, h: float) -> list[np.ndarray]:
     """Boundary samples of every edge of one panel (:func:`_sample_panels`, no seams)."""
     return _sample_panels({panel.name: panel}, h, {})[panel.name]
@@ -202,14 +220,20 @@ def _sample_panels(panels: dict, h: float, partners: dict) -> dict[str, list[np.
     coincident points.
     """
     out = {name: [e.sample(h) for e in p.edges] for name, p in panels.items()}
+    collapsed = {name: collapsed_edges(p, h) for name, p in panels.items()}
     for _ in range(4):  # grading changes end segments, which may call for more grading
         size = {}  # (panel, edge) -> (even spacing, start target, end target) [m]
         for name, p in panels.items():
-            q, n = out[name], len(p.edges)
+            q, n, gone = out[name], len(p.edges), collapsed[name]
             for k, e in enumerate(p.edges):
                 even = e.length_m / max(1, math.ceil(e.length_m / h - 1e-9))
-                start = float(np.linalg.norm(q[(k - 1) % n][-1] - q[(k - 1) % n][-2]))
-                end = float(np.linalg.norm(q[(k + 1) % n][1] - q[(k + 1) % n][0]))
+                before, after = (k - 1) % n, (k + 1) % n
+                while gone[before] and before != k:  # graded towards a real neighbour only
+                    before = (before - 1) % n
+                while gone[after] and after != k:
+                    after = (after + 1) % n
+                start = float(np.linalg.norm(q[before][-1] - q[before][-2]))
+                end = float(np.linalg.norm(q[after][1] - q[after][0]))
                 size[name, k] = (even, start if start < GRADE_BELOW * even else np.inf,
                                  end if end < GRADE_BELOW * even else np.inf)  # fmt: skip
         changed = False

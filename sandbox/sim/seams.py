@@ -108,11 +108,15 @@ def match_springs(a: SeamLine, b: SeamLine) -> tuple[np.ndarray, np.ndarray]:
     for i, ti in enumerate(t):
         j = int(np.searchsorted(s, ti))
         if j < len(s) and abs(s[j] - ti) <= PARAM_TOL:
-            pairs.append((short.particles[i], long_.particles[j]))
-            rest.append(0.0)
+            pair = (short.particles[i], long_.particles[j])
+            if not pairs or pairs[-1] != pair:  # a collapsed edge repeats its one vertex
+                pairs.append(pair)
+                rest.append(0.0)
         elif j > 0 and j - 1 < len(s) and abs(s[j - 1] - ti) <= PARAM_TOL:
-            pairs.append((short.particles[i], long_.particles[j - 1]))
-            rest.append(0.0)
+            pair = (short.particles[i], long_.particles[j - 1])
+            if not pairs or pairs[-1] != pair:
+                pairs.append(pair)
+                rest.append(0.0)
         else:
             j = min(max(j, 1), len(s) - 1)
             pairs.append((short.particles[i], long_.particles[j - 1]))
