@@ -122,6 +122,27 @@ def test_seam_sides_are_sampled_alike():
         assert min(min_angle_deg(m.points, m.triangles) for m in meshes.values()) >= 25.0
 
 
+def test_the_jumpsuits_millimetre_edges_are_not_meshed():
+    """GarmentCode's jumpsuit has 0.9-1.8 mm edges where its stitches split the waist: they
+    collapse to one vertex each, so no mesh edge is far shorter than the target, no vertex is
+    held up by the mass floor, and every seam still sews both its sides."""
+    from sandbox.pattern.panel_mesh import mesh_pattern
+
+    p, _ = _both("js_mean_all")
+    for h in (0.03, 0.015):
+        meshes = mesh_pattern(p, h)
+        shortest = min(
+            np.linalg.norm(m.points[t[:, [1, 2, 0]]] - m.points[t], axis=2).min()
+            for m in meshes.values()
+            for t in [m.triangles]
+        )
+        assert shortest > 0.2 * h
+        for seam in p.seams:
+            for side in (seam.side_a, seam.side_b):
+                assert all(len(meshes[pn].edge_vertices[k]) >= 2 for pn, k in side)
+    assert sum(len(m.points) for m in mesh_pattern(p, 0.03).values()) < 3100  # 4,041 graded
+
+
 def test_a_lapel_is_cut_to_turn_over():
     """Every stitch of the standing lapel's front collar joins its right side to the wrong
     side of its neighbours: it is meant to end turned over, and the fold check skips it."""

@@ -435,7 +435,7 @@ def test_panel_mesh_collapses_edges_far_shorter_than_the_mesh():
     m = mesh_panel(panel, h)
     tiny = m.edge_vertices[3]
     assert len(tiny) == 2 and tiny[0] == tiny[1]  # both corners are one vertex
-    assert np.allclose(m.points[tiny[0]], [0.2, 0.5])  # at the edge's end (20, 50 cm)
+    assert np.allclose(m.points[tiny[0]], [0.2005, 0.5])  # at the edge's middle
     assert m.edge_vertices[2][-1] == tiny[0] and m.edge_vertices[4][0] == tiny[0]
     assert min_angle_deg(m.points, m.triangles) >= 25.0
     seg = np.linalg.norm(np.diff(m.points[m.edge_vertices[2]], axis=0), axis=1)

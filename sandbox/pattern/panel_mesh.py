@@ -43,7 +43,7 @@ MATCH_LENGTHS = 0.1
 """Boundary segments grow by at most this fraction per segment away from a tiny edge."""
 COLLAPSE_BELOW = 0.2
 """An outline edge shorter than this fraction of the mesh edge is not resolved by the mesh:
-its start corner is dropped and its two ends are one vertex (:func:`collapsed_edges`)."""
+its two corners are one vertex, at its middle (:func:`collapsed_edges`)."""
 MIN_ANGLE_DEG = 28.0
 """Requested minimum angle; Triangle reaches it except next to sharper outline corners."""
 
@@ -105,7 +105,8 @@ def mesh_panel(
     if samples is None:
         samples = _sample_edges(panel, edge_length_m)
     collapsed = collapsed_edges(panel, edge_length_m)
-    # a collapsed edge adds no boundary point: its start is dropped, its end is the next's
+    samples = _merge_collapsed(samples, collapsed)
+    # a collapsed edge adds no boundary point: its one vertex is the next edge's start
     counts = [0 if c else len(s) - 1 for s, c in zip(samples, collapsed, strict=True)]
     boundary = np.vstack([s[:n] for s, n in zip(samples, counts, strict=True)])
     nb = len(boundary)
@@ -196,11 +197,37 @@ def collapsed_edges(panel: Panel, h: float) -> list[bool]:
     edge ``h`` [m] (GarmentCode's outlines have edges of 1-2 mm where its stitches split an
     edge). Such an edge would take a fan of millimetre triangles to mesh at the minimum
     angle, each far lighter and stiffer than the rest (they set the explicit step); instead
-    its two corners are one mesh vertex, at its end: the outline moves by less than the
-    edge's length. A seam along it still sews that vertex. None of an outline's edges
-    collapse if all of them would."""
+    its two corners are one mesh vertex, at its middle (:func:`_merge_collapsed`): the
+    outline moves by half the edge's length. A seam along it still sews that vertex. None
+    of an outline's edges collapse if all of them would."""
     short = [e.length_m < COLLAPSE_BELOW * h for e in panel.edges]
     return [False] * len(short) if all(short) else short
+
+
+def _merge_collapsed(samples: list[np.ndarray], collapsed: list[bool]) -> list[np.ndarray]:
+    """The edge samples with each run of collapsed edges (:func:`collapsed_edges`) turned
+    into one point, the middle between the run's two end corners: the run's edges become
+    that point twice, and the edges before and after it end and start there. The middle,
+    not an end, so that the two sides of a seam across such edges meet where they did."""
+    out = [np.array(q, float, copy=True) for q in samples]
+    n = len(out)
+    if not any(collapsed):
+        return out
+    first = next(k for k in range(n) if not collapsed[k])  # runs start after a kept edge
+    k = first
+    for _ in range(n):
+        k = (k + 1) % n
+        if not collapsed[k] or collapsed[(k - 1) % n]:
+            continue
+        run = [k]
+        while collapsed[(run[-1] + 1) % n]:
+            run.append((run[-1] + 1) % n)
+        mid = 0.5 * (out[run[0]][0] + out[run[-1]][-1])
+        for j in run:
+            out[j] = np.stack([mid, mid])
+        out[(run[0] - 1) % n][-1] = mid
+        out[(run[-1] + 1) % n][0] = mid
+    return out
 
 
 def _sample_edges(panel: Panel, h: float) -> list[np.ndarray]:
