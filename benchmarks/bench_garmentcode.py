@@ -185,17 +185,19 @@ def main(argv=None) -> int:
     RESULTS.mkdir(parents=True, exist_ok=True)
     SHEETS.mkdir(parents=True, exist_ok=True)
     earlier = RESULTS / f"garmentcode_{tag}.json"
+    for r in rows:
+        r["ran"] = header  # each row keeps the run it came from
     if args.specs and earlier.is_file():  # the designs not named keep their earlier rows
         done = {r["spec"] for r in rows}
         old = json.loads(earlier.read_text())
-        rows = sorted(rows + [r for r in old["designs"] if r["spec"] not in done],
-                      key=lambda r: r["spec"])  # fmt: skip
-        header += (
-            "; rows of "
-            + ", ".join(sorted(done))
-            + " rerun, the others from: "
-            + (old["settings"].split(";")[0])
-        )
+        kept = [r for r in old["designs"] if r["spec"] not in done]
+        for r in kept:
+            r.setdefault("ran", old["settings"])
+        rows = sorted(rows + kept, key=lambda r: r["spec"])
+        runs = list(dict.fromkeys(r["ran"] for r in kept))
+        header = (f"rows of {', '.join(sorted(done))} from {header}"
+                  + "".join(f"; rows of {', '.join(r['spec'] for r in kept if r['ran'] == run)}"
+                            f" from {run}" for run in runs))  # fmt: skip
     (RESULTS / f"garmentcode_{tag}.md").write_text(_table(rows, header, tag))
     (RESULTS / f"garmentcode_{tag}.json").write_text(json.dumps(
         {"settings": header, "designs": [{k: v for k, v in r.items() if k != "front"}

@@ -34,6 +34,7 @@ BENCH_STEP = "docs/results/bench_step.txt"
 GALLERY_SPEED = "docs/results/gallery_speed_coarse_to_fine.json"
 #: GarmentCode's examples (benchmarks/bench_garmentcode.py): (table tag, what it drapes on)
 GARMENTCODE = (("mean_all_3cm", "3 cm, on the body they were drafted for (mean_all)"),
+               ("mean_all_1.5cm", "1.5 cm (coarse to fine), on mean_all"),
                ("size8_3cm", "3 cm, on size 8"), ("size18_3cm", "3 cm, on size 18"))  # fmt: skip
 
 STEP_VERTICES = 16_000
@@ -131,7 +132,9 @@ def garmentcode_figures(root: Path) -> list[Figure]:
         times = _seconds([float(r["wall_s"]) for r in done]) if done else "-"
         body = "--body tests/data/garmentcode/bodies/mean_all.yaml" if tag.startswith(
             "mean_all") else f"--size {tag[4:].split('_')[0]}"  # fmt: skip
-        command = f"python benchmarks/bench_garmentcode.py {body} --jobs 2"
+        edge = tag.rsplit("_", 1)[1][: -len("cm")]
+        edge = "" if edge == "3" else f" --edge-cm {edge}"
+        command = f"python benchmarks/bench_garmentcode.py{edge} {body} --jobs 2"
         every = len(list((root / "tests" / "data" / "garmentcode").glob("*_specification.json")))
         if len(rows) < every:  # the designs it drapes are named
             command += " " + " ".join(sorted(r["spec"] for r in rows))
