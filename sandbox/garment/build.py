@@ -142,7 +142,8 @@ def build_drape(
                                   frame_rate_hz=config.frame_rate_hz,
                                   damping_per_s=config.damping_per_s, strain_damping_s=beta,
                                   seam_damping_ratio=0.0 if config.implicit else
-                                  config.seam_damping_ratio),
+                                  config.seam_damping_ratio,
+                                  seam_hold_m=0.0 if config.implicit else config.seam_hold_m),
         stop=StopSpec(max_displacement_m=config.stop_max_m,
                       mean_displacement_m=config.stop_mean_m, frames=1,
                       min_time_s=config.min_time_s, time_limit_s=config.time_limit_s,

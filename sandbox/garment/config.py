@@ -226,6 +226,13 @@ class DrapeConfig:
     garment has come to rest, its amplitude (up to a millimetre on a 3 cm mesh) hidden from
     a stop rule that samples positions once a frame. The dashpot acts on the pair's relative
     velocity only and leaves the rest shape alone."""
+    seam_hold_m: float = 1e-3
+    """How far a closed stitch may open [m] (explicit only; 0: seams are springs alone). A
+    seam spring is as stiff as a centimetre of the cloth, so where the cloth is stretched
+    hard (a tight skirt over the seat) its stitches open by millimetres; thread does not
+    stretch. Once a stitch has closed to within this distance the solver keeps it there
+    (its seam hold, a velocity filter that costs no step size). Half the acceptance's
+    :attr:`AcceptanceConfig.seam_gap_m`."""
     thickness_m: float = 2e-3
     """Contact thickness against the body and the cloth itself [m]."""
     self_collision: bool = True
@@ -281,6 +288,7 @@ class DrapeConfig:
         _check_nonnegative("DrapeConfig", damping_per_s=self.damping_per_s,
                            strain_damping_s=self.strain_damping_s,
                            seam_damping_ratio=self.seam_damping_ratio,
+                           seam_hold_m=self.seam_hold_m,
                            min_time_s=self.min_time_s,
                            fine_min_time_s=self.fine_min_time_s,
                            fine_damping_per_s=self.fine_damping_per_s)  # fmt: skip

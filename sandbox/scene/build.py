@@ -284,6 +284,7 @@ def scene_from_model(spec: SceneSpec, model: Model,
     limit = stable_dt_estimate(model)
     model.strain_damping_s[None] = sim.strain_damping_s
     model.seam_damping_ratio[None] = sim.seam_damping_ratio
+    model.seam_hold_m[None] = sim.seam_hold_m
     auto = min(frame, IMPLICIT_DT_S if sim.integrator == "implicit_euler" else
                DT_SAFETY * damped_step(limit, sim.strain_damping_s))  # fmt: skip
     dt = sim.dt_s if sim.dt_s is not None else auto

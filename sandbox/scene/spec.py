@@ -65,6 +65,7 @@ class SimulationSpec:
     damping_per_s: float = 0.5
     strain_damping_s: float = 0.0  # the membrane's strain-rate damping β [s]; explicit only
     seam_damping_ratio: float = 0.0  # ζ of each seam spring's dashpot; explicit only
+    seam_hold_m: float = 0.0  # how far a closed stitch may open [m]; 0: no hold; explicit only
     bending: bool = True
     linear_solver: str = "auto"  # implicit_euler only: "auto", "direct" or "cg"
 
@@ -196,7 +197,7 @@ def scene_from_dict(data: dict, *, source: str = "<scene>") -> SceneSpec:
 def _simulation(r: _Reader, t: dict) -> SimulationSpec:
     w = "[simulation]"
     r.keys(t, w, {"integrator", "dt_s", "frame_rate_hz", "gravity_m_s2", "damping_per_s",
-                  "strain_damping_s", "seam_damping_ratio", "bending",
+                  "strain_damping_s", "seam_damping_ratio", "seam_hold_m", "bending",
                   "linear_solver"})  # fmt: skip
     s = SimulationSpec()
     s.integrator = r.choice(t, w, "integrator", INTEGRATORS, s.integrator)
@@ -214,6 +215,10 @@ def _simulation(r: _Reader, t: dict) -> SimulationSpec:
     if s.seam_damping_ratio > 1.0:
         raise SandboxError(f"{r.source}: {w} seam_damping_ratio must be at most 1 (critical "
                            f"damping), got {s.seam_damping_ratio}")  # fmt: skip
+    s.seam_hold_m = r.number(t, w, "seam_hold_m", s.seam_hold_m, minimum=0.0)
+    if s.seam_hold_m > 0 and s.integrator != "symplectic_euler":
+        raise SandboxError(f"{r.source}: {w} seam_hold_m is for symplectic_euler only "
+                           f"(backward Euler takes stiff seams as they are)")  # fmt: skip
     s.bending = r.boolean(t, w, "bending", s.bending)
     s.linear_solver = r.choice(t, w, "linear_solver", LINEAR_SOLVERS, s.linear_solver)
     if s.dt_s is not None and s.dt_s > 1.0 / s.frame_rate_hz:

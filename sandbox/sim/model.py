@@ -122,6 +122,11 @@ class Model:
         """Damping ratio ζ of each seam spring's dashpot, c = 2 ζ √(k μ) with μ the pair's
         reduced mass (0 = off, the default). Without it a stiff seam pair rings at a few
         steps' period for ever, unseen by a stop rule that samples once a frame."""
+        self.seam_hold_m = ti.field(float, shape=())
+        """How far a sewn stitch may open [m] (0 = no hold, the default; explicit only): the
+        solver's seam hold (``SymplecticEulerSolver._seam_hold``) draws each stitch that has
+        come close to within this distance and keeps it there, as thread holds a stitch
+        however hard the cloth pulls. A 0-D field: set it any time."""
         inv_mass = np.where(pinned, 0.0, 1.0 / np.maximum(mass, 1e-30))
         if n:
             self.particle_mass.from_numpy(_f(mass))
@@ -138,6 +143,7 @@ class Model:
         self.hinge_stiffness = None
         self.seam_pairs = self.seam_rest = self.seam_stiffness = None
         self.vert_seam_start = self.vert_seam_slot = self.seam_active = None
+        self.seam_limit = None
         # Seam fields exist only in a scene that sews, or that may sew live (the app's
         # click-to-sew): ``seam_capacity`` springs are allocated once, ``seam_active`` (0-D)
         # holds the live count the kernels loop over, so sewing never recompiles.
@@ -149,6 +155,10 @@ class Model:
             self.seam_rest = ti.field(float, shape=k)
             self.seam_stiffness = ti.field(float, shape=k)
             self.seam_active = ti.field(ti.i32, shape=())
+            self.seam_limit = ti.field(float, shape=k)
+            """How far each stitch may open now [m], kept by the solver's seam hold once the
+            stitch has been caught (it came within a few :attr:`seam_hold_m`); -1 for one
+            still being sewn by its spring alone. Reset when the springs are set."""
             self.vert_seam_start = ti.field(ti.i32, shape=n + 1)
             self.vert_seam_slot = ti.field(ti.i32, shape=2 * k)
             empty = np.zeros((0, 2), np.int64)
@@ -197,6 +207,7 @@ class Model:
         self.vert_seam_start.from_numpy(start)
         self.vert_seam_slot.from_numpy(pad_slot)
         self.seam_active[None] = k
+        self.seam_limit.fill(-1.0)
         self.seam_count = k
         self.seam_version += 1  # solvers that keep a sparsity pattern rebuild it
         self.seam_pairs_np = pairs if k else None

@@ -5,6 +5,7 @@ reaches rest. The residual cannot: at rest every free vertex's net force is zero
 contact can carry. Here it is measured per free vertex i, in units of its own weight:
 
     f_i = elastic (Eq. 6-8 membrane, Eq. 7-8 bending) + seam springs + m_i g   (no damping)
+          + the thread's pull at a stitch held at its limit (:func:`thread_tension`)
     r_i = |f_i|                                  away from the body
     r_i = max(0, |f_t| − μ_s |f_n|)              within reach of the body and f_i·n < 0
 
@@ -134,6 +135,48 @@ def _supported(f: np.ndarray, n1: np.ndarray, n2: np.ndarray, count: np.ndarray,
     return best
 
 
+def thread_tension(model, x: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """The forces ``f`` (n, 3) [N] with the thread's pull added at each stitch the seam hold
+    keeps at its limit (``model.seam_limit``, :meth:`~sandbox.sim.solver.
+    SymplecticEulerSolver._seam_hold`): at such a stitch the thread pulls its two sides
+    together with whatever tension t >= 0 the cloth asks, as the body pushes back on cloth
+    pressing into it. For a stitch a–q (q = Σ c_k x_k, one point or a point between two of
+    the other side's, as in :func:`~sandbox.sim.seams.seam_openings`) along n = (x_a − q) /
+    |x_a − q|, the thread adds −t n to f_a and c_k t n to f_k, with the t that leaves the
+    least net force: t = max(0, (f_a − Σ c_k f_k)·n / (1 + Σ c_k²)). A stitch counts as at
+    its limit (``model.seam_limit``) beyond 0.9 of it. Returns a new array."""
+    f = np.array(f, np.float64)
+    hold = float(model.seam_hold_m[None]) if model.has_seams else 0.0
+    if hold <= 0.0 or model.seam_pairs_np is None:
+        return f
+    from sandbox.sim.seams import seam_openings
+
+    pairs, rest = model.seam_pairs_np, model.seam_rest_np
+    limit = model.seam_limit.to_numpy()[: len(pairs)]
+    gap = seam_openings(pairs, rest, x)
+    a, b = pairs[:, 0], pairs[:, 1]
+    twin = np.zeros(len(pairs), bool)  # the first of a point's two springs
+    if len(pairs) > 1:
+        twin[:-1] = (rest[:-1] > 0) & (rest[1:] > 0) & (a[:-1] == a[1:])
+    second = np.zeros(len(pairs), bool)
+    second[1:] = twin[:-1]
+    b2 = np.where(twin, np.roll(b, -1), b)
+    w = np.where(twin, rest / np.maximum(rest + np.roll(rest, -1), 1e-300), 0.0)
+    c1, c2 = 1.0 - w, w
+    held = (limit >= 0) & ~second & (gap > 0.9 * limit)
+    held &= ~((rest > 0) & ~twin)  # a spring with a rest length: its stretch, not a point
+    q = c1[:, None] * x[b] + c2[:, None] * x[b2]
+    d = x[a] - q
+    n = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-300)
+    pull = (np.einsum("ij,ij->i", f[a], n) - c1 * np.einsum("ij,ij->i", f[b], n)
+            - c2 * np.einsum("ij,ij->i", f[b2], n))  # fmt: skip
+    t = np.where(held, np.maximum(0.0, pull / (1.0 + c1**2 + c2**2)), 0.0)
+    np.add.at(f, a, -t[:, None] * n)
+    np.add.at(f, b, (c1 * t)[:, None] * n)
+    np.add.at(f, b2, (c2 * t)[:, None] * n)
+    return f
+
+
 def equilibrium_residual(model, x: np.ndarray, forces: np.ndarray, gravity) -> dict:
     """The residual of a state, per free vertex, over its weight (module docstring).
 
@@ -146,7 +189,7 @@ def equilibrium_residual(model, x: np.ndarray, forces: np.ndarray, gravity) -> d
     "residual_p99_over_weight", "residual_argmax", "residual_contact_vertices"}``.
     """
     x = np.asarray(x, np.float64)
-    f = np.asarray(forces, np.float64).copy()
+    f = thread_tension(model, x, forces)
     mass = model.particle_mass.to_numpy()[: len(x)].astype(np.float64)
     free = model.particle_inv_mass.to_numpy()[: len(x)] > 0
     g = float(np.linalg.norm(gravity))

@@ -33,6 +33,11 @@ from sandbox.sim.model import Control, Model, State  # noqa: F401 (used in annot
 # The crossover moves with the machine's load; on a
 # GPU every step is a parallel launch.
 FUSED_PARTICLE_LIMIT = 4000
+# The seam hold (SymplecticEulerSolver._seam_hold): a stitch is caught once its gap is
+# within this many hold distances, then drawn in at this speed [m/s] to the hold distance:
+# 1 cm/s closes a 3 mm gap in 0.2 s, with impulses far below the cloth's own speeds.
+HOLD_CATCH = 3.0
+HOLD_DRAW_M_S = 0.01
 NO_STEP = 2**31 - 1
 
 
@@ -52,9 +57,10 @@ class SymplecticEulerSolver:
         self.hinge_force = None
         if model.hinge_count:
             self.hinge_force = ti.Vector.field(3, float, shape=4 * model.hinge_count)
-        self.seam_force = None
+        self.seam_force = self.seam_dv = None
         if model.has_seams:
             self.seam_force = ti.Vector.field(3, float, shape=2 * model.seam_capacity)
+            self.seam_dv = ti.Vector.field(3, float, shape=2 * model.seam_capacity)
         self.self_collider = model.self_collider
         # the face pass: closed bodies' vertices against cloth triangles (only with bodies)
         self.face_bodies = [c for c in model.colliders if getattr(c, "face_pass", False)]
@@ -398,6 +404,87 @@ class SymplecticEulerSolver:
         return out
 
     @ti.func
+    def _seam_hold(self, x, v, dt):
+        """Thread holds a sewn stitch: between Eq. 2's velocity update and the contacts,
+        the velocities v(t+dt) of a stitch that would open beyond its limit are changed so
+        that it opens to the limit exactly. A seam spring as stiff as thread would need a
+        step too short to run; this is its limit of infinite stiffness, as a velocity filter
+        (as Bridson et al. 2002 limit strain), so the step keeps its size.
+
+        The limit (``model.seam_limit``, per stitch): none while the paper's springs sew the
+        stitch; once its gap g is within :data:`HOLD_CATCH` × h (h = ``model.seam_hold_m``)
+        the stitch is caught, and each step its limit becomes max(h, min(limit, g) −
+        :data:`HOLD_DRAW_M_S` dt): the thread is drawn in to h and never lets the stitch
+        reopen. Its gap is the seam's own (:func:`~sandbox.sim.seams.seam_openings`): a
+        zero-length spring's length, a spring of rest length r's stretch, or, for a point
+        between two of the other line's (two springs from one particle, both r > 0), its
+        distance to the point of equal parameter q = (1 − w) x_j + w x_j+1,
+        w = r_1 / (r_1 + r_2). With the predicted gap d = p_a − q (p = x + dt v),
+        n = d/|d|, inverse masses w_k, weights c_k of the points in q (c_a = 1) and s_k the
+        springs particle k is in, the impulse λ = (|d| − limit) / (dt Σ c_k² s_k w_k)
+        changes v_a by −w_a λ n and v_k by c_k w_k λ n: momentum is kept, and the change
+        only removes the separating speed. All stitches are solved at once (Jacobi): a
+        particle in s springs counts with s times its inverse mass in each λ and takes the
+        sum of their changes (mass splitting, Tonge et al. 2012), so a shared particle does
+        not overshoot. No-op with h = 0.
+        """
+        m = self.model
+        if ti.static(m.has_seams):
+            hold = m.seam_hold_m[None]
+            count = m.seam_active[None] if hold > 0.0 and dt > 0.0 else 0
+            for q in range(count):
+                self.seam_dv[2 * q] = ti.Vector([0.0, 0.0, 0.0])
+                self.seam_dv[2 * q + 1] = ti.Vector([0.0, 0.0, 0.0])
+            for q in range(count):
+                a, b = m.seam_pairs[q][0], m.seam_pairs[q][1]
+                r = m.seam_rest[q]
+                role = 0  # 0: a spring; 1: the first of a point's two; 2: the second
+                if r > 0.0 and q + 1 < count:
+                    if m.seam_rest[q + 1] > 0.0 and m.seam_pairs[q + 1][0] == a:
+                        role = 1
+                if role == 0 and r > 0.0 and q > 0:
+                    if m.seam_rest[q - 1] > 0.0 and m.seam_pairs[q - 1][0] == a:
+                        role = 2
+                if role != 2:
+                    b2 = b
+                    c1, c2 = 1.0, 0.0
+                    rest = r
+                    if role == 1:
+                        b2 = m.seam_pairs[q + 1][1]
+                        w = r / (r + m.seam_rest[q + 1])
+                        c1, c2 = 1.0 - w, w
+                        rest = 0.0
+                    gap = (x[a] - c1 * x[b] - c2 * x[b2]).norm() - rest
+                    limit = m.seam_limit[q]
+                    if limit < 0.0 and gap <= HOLD_CATCH * hold:
+                        limit = gap
+                    if limit >= 0.0:
+                        limit = ti.max(hold, ti.min(limit, gap) - HOLD_DRAW_M_S * dt)
+                        m.seam_limit[q] = limit
+                        d = (x[a] + dt * v[a]) - c1 * (x[b] + dt * v[b]) - c2 * (x[b2] + dt * v[b2])
+                        length = d.norm()
+                        wa = m.particle_inv_mass[a]
+                        wb, wb2 = m.particle_inv_mass[b], m.particle_inv_mass[b2]
+                        inv = (wa * self._seam_share(a) + c1 * c1 * wb * self._seam_share(b)
+                               + c2 * c2 * wb2 * self._seam_share(b2))  # fmt: skip
+                        if length > rest + limit and inv > 0.0:
+                            n = d / length
+                            lam = (length - rest - limit) / (dt * inv)
+                            self.seam_dv[2 * q] = -wa * lam * n
+                            self.seam_dv[2 * q + 1] = c1 * wb * lam * n
+                            if role == 1:
+                                self.seam_dv[2 * q + 3] = c2 * wb2 * lam * n
+            for i in range(m.particle_count if count > 0 else 0):
+                for k in range(m.vert_seam_start[i], m.vert_seam_start[i + 1]):
+                    v[i] += self.seam_dv[m.vert_seam_slot[k]]
+
+    @ti.func
+    def _seam_share(self, i):
+        """How many seam springs particle i is in (at least 1): the seam hold splits its
+        mass among them."""
+        return ti.max(1, self.model.vert_seam_start[i + 1] - self.model.vert_seam_start[i])
+
+    @ti.func
     def _contact(self, i, x_in, v_new, dt):
         """Contact (§2.5): each body collider revises v(t+dt) of particle i before the
         position update. Returns ``(v_move, push)`` as :meth:`_velocity`."""
@@ -428,11 +515,13 @@ class SymplecticEulerSolver:
             for i in range(self.model.particle_count):
                 self._position(i, x_in, x_out, v_out[i], dt, index)
                 v_out[i] -= self.push[i]
-        elif ti.static(self.has_bodies):
+        elif ti.static(self.has_bodies or self.model.has_seams):
             # two loops: the force gather and the contact queries, each compiled on its
-            # own, run faster than one loop doing both (measured on the draped sheet)
+            # own, run faster than one loop doing both (measured on the draped sheet); the
+            # seam hold between them needs every particle's new velocity
             for i in range(self.model.particle_count):
                 v_out[i] = self._free_velocity(i, v_in, gravity, damping, dt)
+            self._seam_hold(x_in, v_out, dt)
             for i in range(self.model.particle_count):
                 v_new, push = self._contact(i, x_in, v_out[i], dt)
                 v_out[i] = v_new - push
@@ -445,16 +534,14 @@ class SymplecticEulerSolver:
 
     @ti.func
     def _kick(self, x_in, v_in, v_out, gravity, damping, dt):
+        for i in range(self.model.particle_count):
+            v_out[i] = self._free_velocity(i, v_in, gravity, damping, dt)
+        self._seam_hold(x_in, v_out, dt)
         if ti.static(self.has_bodies):  # two loops, as in :meth:`_kick_drift`
-            for i in range(self.model.particle_count):
-                v_out[i] = self._free_velocity(i, v_in, gravity, damping, dt)
             for i in range(self.model.particle_count):
                 v_new, push = self._contact(i, x_in, v_out[i], dt)
                 v_out[i] = v_new
                 self.push[i] = push
-        else:
-            for i in range(self.model.particle_count):
-                v_out[i] = self._free_velocity(i, v_in, gravity, damping, dt)
         if ti.static(self.has_faces):
             self._face_pass(x_in, v_out, dt)
 
