@@ -98,7 +98,8 @@ def test_a_hem_folded_up_is_flagged_and_a_sheet_that_only_sags_is_not():
     # counts, and the panel carried round to the back (as a strap over the shoulder) does
     # not, though every normal turned half a turn
     body = SimpleNamespace(surface_normals=lambda c: np.column_stack(
-        [np.zeros(len(c)), np.zeros(len(c)), np.where(c[:, 2] >= 0, 1.0, -1.0)]))  # fmt: skip
+        [np.zeros(len(c)), np.zeros(len(c)), np.where(c[:, 2] >= 0, 1.0, -1.0)]),
+        distance=lambda c: np.abs(c[:, 2]))  # fmt: skip
     front = x0 + [0.0, 0.0, 0.01]
     back = front * [-1.0, 1.0, -1.0]
     assert fold_metrics(front, back, tri)["folded_area_pct"] == pytest.approx(100.0)
@@ -108,8 +109,32 @@ def test_a_hem_folded_up_is_flagged_and_a_sheet_that_only_sags_is_not():
     # a panel pushed 2 cm out to where a hand (at z = 0.04, its surface facing the panel
     # pointing -z) is the nearest body part: it faces the hand now, but has not turned
     hand = SimpleNamespace(surface_normals=lambda c: np.column_stack(
-        [np.zeros(len(c)), np.zeros(len(c)), np.where(c[:, 2] < 0.02, 1.0, -1.0)]))  # fmt: skip
+        [np.zeros(len(c)), np.zeros(len(c)), np.where(c[:, 2] < 0.02, 1.0, -1.0)]),
+        distance=lambda c: np.abs(c[:, 2] - 0.04))  # fmt: skip
     assert fold_metrics(front, front + [0.0, 0.0, 0.02], tri, hand)["folded_area_pct"] == 0.0
+    # hanging free (5 cm out, beyond AcceptanceConfig.fold_free_m): a flute whose wall
+    # turned 120° about the vertical is not counted; the hem rolled up still is
+    free = x0 + [0.0, 0.0, 0.05]
+    m = fold_metrics(free, free + (folded - x0), tri, body)
+    assert m["folded_area_pct"] == pytest.approx(7.5, abs=0.01) and m["rolled_up"]
+    fluted = _fluted(free, 0.1, 0.2, 120.0)
+    m = fold_metrics(free, fluted, tri, body)
+    assert m["folded_area_pct"] == 0.0 and m["fluted_area_pct"] == pytest.approx(25.0, abs=0.01)
+    near = SimpleNamespace(surface_normals=body.surface_normals,
+                           distance=lambda c: np.zeros(len(c)))  # fmt: skip
+    assert fold_metrics(free, fluted, tri, near)["folded_area_pct"] == pytest.approx(25.0, abs=0.01)
+
+
+def _fluted(x: np.ndarray, x_from: float, x_to: float, angle_deg: float) -> np.ndarray:
+    """The panel ``x`` (in the x-y plane) with its band x_from..x_to turned by
+    ``angle_deg`` about the vertical at x_from (a flute's wall), the rest carried along."""
+    out = x.copy()
+    c, s = np.cos(np.radians(angle_deg)), np.sin(np.radians(angle_deg))
+    band = np.clip(x[:, 0], x_from, x_to) - x_from
+    out[:, 0] = x_from + band * c + np.maximum(x[:, 0] - x_to, 0.0)
+    out[:, 2] = x[:, 2] + band * s
+    out[x[:, 0] < x_from, 0] = x[x[:, 0] < x_from, 0]
+    return out
 
 
 def test_the_gallery_table_counts_the_garments_that_meet_the_acceptance(tmp_path):

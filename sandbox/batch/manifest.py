@@ -39,6 +39,7 @@ METRIC_COLUMNS = {
     "hangs_from": "string",
     "top_below_anchor_m": "float64",
     "folded_area_pct": "float64",
+    "fluted_area_pct": "float64",
     "nan_positions": "int64",
     "ease_bust_cm": "float64",
     "ease_waist_cm": "float64",

@@ -140,13 +140,19 @@ class AcceptanceConfig:
     hangs from."""
     fold_tolerance_pct: float = 2.0
     """A garment has rolled up when more than this share of its area [%] ends turned over."""
+    fold_free_m: float = 0.03
+    """Cloth further than this from the body [m] hangs free, and counts as turned over only
+    upside down (:func:`~sandbox.garment.metrics.fold_metrics`): a flare's flutes turn
+    past 90° about the vertical. Within it cloth lies on the body or on the garment's
+    layers over it (a collar, a lapel, a bodice under a yoke)."""
 
     def __post_init__(self):
         _check_positive("AcceptanceConfig", seam_gap_m=self.seam_gap_m,
                         penetration_m=self.penetration_m,
                         body_through_m=self.body_through_m,
                         slide_tolerance_m=self.slide_tolerance_m,
-                        fold_tolerance_pct=self.fold_tolerance_pct)  # fmt: skip
+                        fold_tolerance_pct=self.fold_tolerance_pct,
+                        fold_free_m=self.fold_free_m)  # fmt: skip
 
 
 DRAPE_METHODS = ("direct", "coarse_to_fine")
@@ -227,11 +233,12 @@ class DrapeConfig:
     a stop rule that samples positions once a frame. The dashpot acts on the pair's relative
     velocity only and leaves the rest shape alone."""
     seam_hold_m: float = 1e-3
-    """How far a closed stitch may open [m] (explicit only; 0: seams are springs alone). A
+    """How far a sewn stitch may open [m] (explicit only; 0: seams are springs alone). A
     seam spring is as stiff as a centimetre of the cloth, so where the cloth is stretched
     hard (a tight skirt over the seat) its stitches open by millimetres; thread does not
-    stretch. Once a stitch has closed to within this distance the solver keeps it there
-    (its seam hold, a velocity filter that costs no step size). Half the acceptance's
+    stretch. Once a stitch has come within 3 times this distance the solver draws it in to
+    this distance and keeps it there (its seam hold, a velocity filter that costs no step
+    size: ``SymplecticEulerSolver._seam_hold``). Half the acceptance's
     :attr:`AcceptanceConfig.seam_gap_m`."""
     thickness_m: float = 2e-3
     """Contact thickness against the body and the cloth itself [m]."""

@@ -239,6 +239,13 @@ class PlacementBody:
         cp = self._raycasting().compute_closest_points(o3d.core.Tensor(x))
         return cp["primitive_normals"].numpy().astype(float)
 
+    def distance(self, x: np.ndarray) -> np.ndarray:
+        """Unsigned distance (n,) [m] from points ``x`` (n, 3) [m] to the body's surface."""
+        import open3d as o3d
+
+        x = np.asarray(x, np.float32).reshape(-1, 3)
+        return self._raycasting().compute_distance(o3d.core.Tensor(x)).numpy().astype(float)
+
     def push_out(self, x: np.ndarray, clearance_m: float) -> tuple[np.ndarray, int]:
         """Move points closer to the body than ``clearance_m`` out to that distance.
 
