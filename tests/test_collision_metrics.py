@@ -143,11 +143,15 @@ def test_exclusions():
         count_intersecting_pairs(v, t, exclude_vertex_pairs=[[0, 99]])
 
 
-def test_seam_joined_points_are_partners_and_partners_partners():
+def test_seam_joined_points_are_partners_partners_partners_and_theirs():
     # a junction: 0 (front) sewn to 1 (back), 1 sewn to 2 (sleeve); a lone seam 5-6
     joined = seam_joined_pairs([[0, 1], [2, 1], [5, 6], [3, 3]], 8)
     assert joined.tolist() == [[0, 1], [0, 2], [1, 2], [5, 6]]
     assert seam_joined_pairs(None).shape == (0, 2)
+    # four panels sewn in a chain at one point (a hood's corners and the two fronts at the
+    # front neck): 10-11, 11-12, 12-13 are all one point; a fifth, 14, beyond it is not
+    joined = seam_joined_pairs([[10, 11], [11, 12], [12, 13], [13, 14]], 15).tolist()
+    assert [10, 13] in joined and [11, 14] in joined and [10, 14] not in joined
     # the crossing quads sewn 7-8 and 8-1 (vertex 8 of a third piece): 1 and 7 are one
     # point, so triangles 0 and 3 only touch there, as with a shared vertex
     va, ta, vb, tb = crossing_quads()

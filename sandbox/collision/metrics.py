@@ -124,9 +124,11 @@ def _member(keys: np.ndarray, table: np.ndarray) -> np.ndarray:
 
 def seam_joined_pairs(seam_pairs, vertex_count: int | None = None) -> np.ndarray:
     """Vertex pairs (p, 2), i < j, that a seam joins into one point of the garment: the
-    sewn pairs and, where three panels meet (an underarm: front, back and sleeve), the
-    partners of partners. The metrics count two triangles that hold such a pair as
-    touching at that point, as two triangles that share a vertex (the self-collider leaves
+    sewn pairs; where three panels meet (an underarm: front, back and sleeve), the
+    partners of partners; where four meet, sewn in a chain (a hood's two halves and the
+    two fronts at the front of the neckline), their partners in turn. The metrics count
+    two triangles that hold such a pair as touching at that point, as two triangles that
+    share a vertex (the self-collider leaves
     the same pairs free, :meth:`~sandbox.collision.self_contact.SelfCollider.set_seam_partners`).
     """
     import scipy.sparse as sp
@@ -138,7 +140,8 @@ def seam_joined_pairs(seam_pairs, vertex_count: int | None = None) -> np.ndarray
     n = int(vertex_count) if vertex_count is not None else int(p.max()) + 1
     a = sp.coo_matrix((np.ones(2 * len(p)), (np.r_[p[:, 0], p[:, 1]], np.r_[p[:, 1], p[:, 0]])),
                       shape=(n, n)).tocsr()  # fmt: skip
-    joined = (a + a @ a).tocoo()
+    a2 = a @ a
+    joined = (a + a2 + a2 @ a).tocoo()
     keep = joined.row < joined.col
     return np.unique(np.stack([joined.row[keep], joined.col[keep]], 1).astype(np.int64), axis=0)
 

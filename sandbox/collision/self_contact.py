@@ -223,7 +223,10 @@ class SelfCollider(PairGrid, PairQueries, CandidateList, ContactPasses, ImpactZo
         mesh neighbours: a vertex is not pushed away from the triangles that hold its seam
         partner (or one of the partner's neighbours). Partners' partners count as partners
         (where three panels meet, as at an underarm, the third panel's vertex is otherwise
-        held a thickness away: 2 mm seam gaps at the 1 cm raglan top's underarms). Edge-edge
+        held a thickness away: 2 mm seam gaps at the 1 cm raglan top's underarms), and
+        theirs too (four panels sewn in a chain, as a hood's halves and the two fronts at
+        the front neck, whose corners otherwise fought the seams and kept the hood
+        trembling). Edge-edge
         pairs use the same list (the partners alone left the 1 cm shirts' seams open where
         a panel's folded corner held them, docs/drape.md).
 
