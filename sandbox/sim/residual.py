@@ -149,19 +149,13 @@ def thread_tension(model, x: np.ndarray, f: np.ndarray) -> np.ndarray:
     hold = float(model.seam_hold_m[None]) if model.has_seams else 0.0
     if hold <= 0.0 or model.seam_pairs_np is None:
         return f
-    from sandbox.sim.seams import seam_openings
+    from sandbox.sim.seams import partner_points, seam_openings
 
     pairs, rest = model.seam_pairs_np, model.seam_rest_np
     limit = model.seam_limit.to_numpy()[: len(pairs)]
     gap = seam_openings(pairs, rest, x)
     a, b = pairs[:, 0], pairs[:, 1]
-    twin = np.zeros(len(pairs), bool)  # the first of a point's two springs
-    if len(pairs) > 1:
-        twin[:-1] = (rest[:-1] > 0) & (rest[1:] > 0) & (a[:-1] == a[1:])
-    second = np.zeros(len(pairs), bool)
-    second[1:] = twin[:-1]
-    b2 = np.where(twin, np.roll(b, -1), b)
-    w = np.where(twin, rest / np.maximum(rest + np.roll(rest, -1), 1e-300), 0.0)
+    twin, second, b2, w = partner_points(pairs, rest)
     c1, c2 = 1.0 - w, w
     held = (limit >= 0) & ~second & (gap > 0.9 * limit)
     held &= ~((rest > 0) & ~twin)  # a spring with a rest length: its stretch, not a point

@@ -143,6 +143,25 @@ def sew(a: SeamLine, b: SeamLine, world: np.ndarray, direction: str = "auto"):
     return pairs, rest, not same
 
 
+def partner_points(pairs: np.ndarray, rest: np.ndarray):
+    """Each spring's partner point on the other line, as :func:`match_springs` emits them:
+    a point between s_j and s_j+1 has two springs, one after the other (same first
+    particle, both rest lengths > 0); its partner is (1 − w) x_j + w x_j+1 with
+    w = r_1 / (r_1 + r_2). Returns ``(first, second, b2, w)``, each (k,): whether a spring
+    is the first or the second of such a twin, and for a first, the other line's second
+    particle and w (b2 = the spring's own partner and w = 0 otherwise)."""
+    p = np.asarray(pairs, np.int64).reshape(-1, 2)
+    r = np.asarray(rest, float).reshape(-1)
+    first = np.zeros(len(p), bool)
+    if len(p) > 1:
+        first[:-1] = (r[:-1] > 0.0) & (r[1:] > 0.0) & (p[:-1, 0] == p[1:, 0])
+    second = np.zeros(len(p), bool)
+    second[1:] = first[:-1]
+    b2 = np.where(first, np.roll(p[:, 1], -1), p[:, 1])
+    w = np.where(first, r / np.maximum(r + np.roll(r, -1), 1e-300), 0.0)
+    return first, second, b2, w
+
+
 def seam_openings(pairs: np.ndarray, rest: np.ndarray, x: np.ndarray) -> np.ndarray:
     """How far apart a seam's two sides are at each spring [m], (k,) for ``pairs`` (k, 2),
     ``rest`` (k,) [m] and positions ``x`` (n, 3) [m].
@@ -161,11 +180,10 @@ def seam_openings(pairs: np.ndarray, rest: np.ndarray, x: np.ndarray) -> np.ndar
     r = np.asarray(rest, float).reshape(-1)
     length = np.linalg.norm(x[p[:, 0]] - x[p[:, 1]], axis=1)
     gap = np.where(r > 0.0, length - r, length)
-    if len(p) > 1:
-        twin = np.flatnonzero((r[:-1] > 0.0) & (r[1:] > 0.0) & (p[:-1, 0] == p[1:, 0]))
-        w = (r[twin] / (r[twin] + r[twin + 1]))[:, None]
-        q = (1.0 - w) * x[p[twin, 1]] + w * x[p[twin + 1, 1]]
-        gap[twin] = gap[twin + 1] = np.linalg.norm(x[p[twin, 0]] - q, axis=1)
+    first, _, b2, w = partner_points(p, r)
+    twin = np.flatnonzero(first)
+    q = (1.0 - w[twin, None]) * x[p[twin, 1]] + w[twin, None] * x[b2[twin]]
+    gap[twin] = gap[twin + 1] = np.linalg.norm(x[p[twin, 0]] - q, axis=1)
     return gap
 
 
