@@ -57,15 +57,20 @@ class Curve:
 
     def arc_at_angle(self, theta: float) -> float:
         """Arc length [m] from vertex 0 to the point where the ray at ``theta`` meets it."""
-        t = self.phi[0] + math.fmod(theta - self.phi[0], 2 * math.pi)
-        if t < self.phi[0]:
-            t += 2 * math.pi
-        j = int(np.clip(np.searchsorted(self.phi, t, side="right") - 1, 0, len(self.p) - 1))
-        r = np.array([math.cos(theta), math.sin(theta)])
+        return float(self.arcs_at_angles(np.array([theta], float))[0])
+
+    def arcs_at_angles(self, theta: np.ndarray) -> np.ndarray:
+        """:meth:`arc_at_angle` for an array of angles (k,) [rad]: arc lengths (k,) [m]."""
+        theta = np.asarray(theta, float)
+        t = self.phi[0] + np.fmod(theta - self.phi[0], 2 * np.pi)
+        t = np.where(t < self.phi[0], t + 2 * np.pi, t)
+        j = np.clip(np.searchsorted(self.phi, t, side="right") - 1, 0, len(self.p) - 1)
+        r0, r1 = np.cos(theta), np.sin(theta)
         p, d = self.p[j], self.d[j]
-        den = r[0] * d[1] - r[1] * d[0]
-        u = 0.0 if abs(den) < 1e-15 else -(r[0] * p[1] - r[1] * p[0]) / den
-        return float(self.s[j] + np.clip(u, 0.0, 1.0) * self.seg[j])
+        den = r0 * d[:, 1] - r1 * d[:, 0]
+        flat = np.abs(den) < 1e-15
+        u = np.where(flat, 0.0, -(r0 * p[:, 1] - r1 * p[:, 0]) / np.where(flat, 1.0, den))
+        return self.s[j] + np.clip(u, 0.0, 1.0) * self.seg[j]
 
     def point_at_arc(self, s: np.ndarray) -> np.ndarray:
         s = np.mod(np.asarray(s, float), self.length)

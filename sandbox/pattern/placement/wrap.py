@@ -80,8 +80,8 @@ def _hang(curves: list[Curve], cfg: PlacementConfig) -> list[Curve]:
     rows above it, in any direction, pushed out to that slope (star-shaped polygons)."""
     phi = np.linspace(-math.pi, math.pi, cfg.radial_samples, endpoint=False)
     ray = np.stack([np.cos(phi), np.sin(phi)], 1)
-    radius = np.array([[float(np.linalg.norm(c.point_at_arc(np.array([c.arc_at_angle(a)]))[0]))
-                        for a in phi] for c in curves])  # fmt: skip
+    radius = np.array([np.linalg.norm(c.point_at_arc(c.arcs_at_angles(phi)), axis=1)
+                       for c in curves])  # fmt: skip
     hung = radius.copy()
     for j in range(len(curves) - 2, -1, -1):
         hung[j] = np.maximum(radius[j], hung[j + 1] - cfg.shrink_slope * cfg.row_m)
