@@ -28,13 +28,30 @@ def measured_stable_dt(solver, state, control, model, *, iterations: int = POWER
     """2 / ω_max [s] of the cloth at ``state`` (free particles only), with ω_max² the
     power method's estimate of the largest |eigenvalue| of M⁻¹K times :data:`EIGEN_MARGIN`.
     Leaves the state's positions as they were. ``solver`` needs ``static_forces``."""
+    lam = dominant_eigenvalue(solver, state, control, model, iterations=iterations, seed=seed)
+    return limit_of(lam)
+
+
+def limit_of(lam: float) -> float:
+    """The explicit stability limit 2 / ω_max [s] for a dominant eigenvalue ``lam`` [1/s²]
+    of M⁻¹K (its magnitude, times :data:`EIGEN_MARGIN`)."""
+    lam = abs(lam) * EIGEN_MARGIN
+    return 2.0 / math.sqrt(lam) if lam > 0 else math.inf
+
+
+def dominant_eigenvalue(solver, state, control, model, *, iterations: int = POWER_ITERATIONS,
+                        seed: int = 0) -> float:  # fmt: skip
+    """The power method's estimate of the eigenvalue of M⁻¹K [1/s²] largest in magnitude,
+    with its sign, at ``state`` (free particles only; 0 when none is free). Negative: the
+    dominant mode is a compression instability (an element squeezed flat), not a
+    stiffness. Leaves the state's positions as they were."""
     x0 = state.positions().astype(np.float64)
     v0 = state.velocities()
     n = len(x0)
     mass = model.particle_mass.to_numpy().astype(np.float64)[:n]  # the inertia the solver uses
     free = ~model.pinned_np[:n]
     if not free.any():
-        return math.inf
+        return 0.0
     u = np.random.default_rng(seed).standard_normal(x0.shape)
     u[~free] = 0.0
     lam = 0.0
@@ -54,5 +71,4 @@ def measured_stable_dt(solver, state, control, model, *, iterations: int = POWER
                 break
     finally:
         state.set(x0, v0)
-    lam = abs(lam) * EIGEN_MARGIN
-    return 2.0 / math.sqrt(lam) if lam > 0 else math.inf
+    return lam
