@@ -34,7 +34,7 @@ PHASES = (
     ("coarse level, all of it", "garment/pipeline.py", "run_drape"),
     ("carry the coarse shape over", "garment/multilevel.py", "carry"),
     ("untangle crossings", "garment/repair.py", "untangle_state"),
-    ("measured stability limit", "sim/stability.py", "measured_stable_dt"),
+    ("measured stability limit", "sim/stability.py", "dominant_eigenvalue"),
     ("equilibrium residual", "sim/residual.py", "scene_residual"),
     ("self-collision list rebuilds", "collision/self_contact.py", "build_list"),
     ("Taichi front end (kernel ASTs)", "taichi/lang/kernel_impl.py", "taichi_ast_generator"),
