@@ -164,3 +164,26 @@ def test_a_coarse_level_that_is_not_at_rest_falls_back_to_the_direct_drape(tmp_p
     assert not m["coarse_converged"] and "draped directly" in m["coarse_fallback"]
     assert m["coarse_vertex_count"] < m["vertex_count"]
     assert m["total_wall_time_s"] >= m["coarse_wall_time_s"] + m["wall_time_s"]
+
+
+def test_a_triangle_squeezed_flat_does_not_set_the_fine_step():
+    """Two neighbours of a hanging sheet pushed to 0.1 mm apart: the dominant eigenvalue is
+    negative (a compression instability, not a stiffness) and far larger than the rest
+    shape's, so the fine level's limit is the rest shape's bound; the sheet as it hangs
+    keeps its measured limit."""
+    from sandbox.garment.multilevel import _fine_limit
+    from sandbox.sim.stability import dominant_eigenvalue, measured_stable_dt
+
+    sc = _hanging_sheet(60.0)
+    bound = sc.dt_limit_s
+    assert _fine_limit(sc, bound) == pytest.approx(
+        measured_stable_dt(sc.solver, sc.state, sc.control, sc.model), rel=1e-9
+    )
+    x = sc.state.positions().astype(np.float64)
+    a, b = (int(i) for i in sc.model.tri_indices_np[len(sc.model.tri_indices_np) // 2][:2])
+    x[a] = x[b] + 1e-4 * (x[a] - x[b]) / np.linalg.norm(x[a] - x[b])
+    sc.state.set(x, np.zeros_like(x))
+    lam = dominant_eigenvalue(sc.solver, sc.state, sc.control, sc.model)
+    assert lam < 0.0
+    assert measured_stable_dt(sc.solver, sc.state, sc.control, sc.model) < 0.5 * bound
+    assert _fine_limit(sc, bound) == bound

@@ -198,7 +198,8 @@ class DrapeConfig:
     """``coarse_to_fine``, explicit: the fine level's step from the stability limit measured
     on the carried shape (:mod:`sandbox.sim.stability`: power iteration on the stiffness),
     not from the bound on the rest shape; at most twice the bound's step, with the guard
-    as the safety net."""
+    as the safety net. Where the measure's dominant mode is an element squeezed flat (a
+    negative eigenvalue), the bound's step."""
     fine_inertia_scale: float = 4.0
     """``coarse_to_fine``, explicit: the fine level runs with its inertia s times its mass and
     its gravity and damping γ divided by s (:func:`sandbox.sim.inertia.scaled_inertia`):
