@@ -265,8 +265,10 @@ def test_implicit_newton_settles_a_sheet_on_a_sphere_without_line_search_halving
     so Newton's step carried it into the penalty and the line search halved the whole
     step: 8-16 halvings a step (about one per Newton iteration) while a sheet lay settled
     on a sphere. Now such a vertex is put on its plane (``_stop_at_planes``) and the
-    friction's normal force is held during the step: none. Jersey, 2 cm edges, 1/60 s
-    (the code before: 89 halvings in these 8 steps)."""
+    friction's normal force is held during the step: at most one a step on average; the count
+    moves with the compiled kernels' float rounding (1 in these 8 steps with Taichi's IR
+    optimisation passes on, 5 with them off). Jersey, 2 cm edges, 1/60 s (the code before:
+    89 halvings in these 8 steps)."""
     sc = scene(
         {"size_m": [0.3, 0.3], "origin_m": [-0.15, 0.21, 0.15], "rotation_deg": [-90, 0, 0]},
         [{"name": "ball", "shape": "sphere", "center_m": [0, 0, 0], "radius_m": 0.2}],
@@ -277,7 +279,7 @@ def test_implicit_newton_settles_a_sheet_on_a_sphere_without_line_search_halving
     sc.solver.advance(sc.state, sc.control, sc.dt_s, 8, 25)
     stats = sc.solver.stats()
     assert stats["unconverged_steps"] == 0
-    assert stats["line_search_halvings"] <= 4  # 89 over these 8 steps before, 0 now
+    assert stats["line_search_halvings"] <= 8  # 89 over these 8 steps before
     assert stats["newton_iterations"] <= 8 * 20  # 11 a step before, 8 now
     radius = np.linalg.norm(sc.state.positions(), axis=1)
     assert radius.min() > 0.2  # on the sphere, not in it
