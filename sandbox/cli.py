@@ -69,6 +69,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("scene", type=Path, help="scene file (.toml)")
     p.add_argument("--out", type=Path, required=True, help="output directory (created)")
     p.add_argument("--no-render", action="store_true", help="skip the PNG")
+    p.add_argument("--direct", action="store_true",
+                   help="ignore the scene's [multilevel] table: run its own mesh from the start")
     _add_runtime_flags(p)
     add_limit_flags(p)
 
@@ -424,13 +426,32 @@ def cmd_run(scene_path: Path, args) -> int:
 
     preflight.check_output_dir(args.out, "--out", names=preflight.RUN_OUTPUTS)
     spec = load_scene(scene_path)  # every input check happens before Taichi starts
-    scene = build_scene(spec, start_runtime=lambda: runtime.init(args.arch, float64=args.float64),
-                        limits=limits_from_args(args, spec.limits))  # fmt: skip
-    if not args.quiet:
-        print(f"{spec.name}: {scene.model.particle_count} vertices, {scene.model.tri_count} "
-              f"triangles, {scene.model.hinge_count} hinges; dt = {scene.dt_s:.3g} s "
-              f"(stability estimate {scene.dt_limit_s:.3g} s)", flush=True)  # fmt: skip
-    result = run_scene(scene, progress=None if not args.quiet else False)
+    if spec.multilevel is not None and getattr(args, "direct", False):
+        spec = dataclasses.replace(spec, multilevel=None)
+
+    def build(level):
+        return build_scene(level, start_runtime=lambda: runtime.init(args.arch, float64=args.float64),
+                           limits=limits_from_args(args, level.limits))  # fmt: skip
+
+    if spec.multilevel is not None:
+        from sandbox.scene.multilevel import check_levels, run_multilevel
+
+        check_levels(spec)  # before anything is built
+        scene, result = run_multilevel(spec, build, progress=None if not args.quiet else False)
+        if not args.quiet:
+            for lv in result.metrics["levels"]:
+                edge = spec.cloths[0].edge_length_m if lv["edge_length_m"] is None else lv[
+                    "edge_length_m"]  # fmt: skip
+                print(f"  level {edge * 100:g} cm: {lv['vertex_count']} vertices, {lv['steps']} "
+                      f"steps of {lv['dt_s'] * 1e6:.0f} us, {lv['sim_time_s']:.2f} s simulated, "
+                      f"{lv['wall_time_s']:.1f} s wall; {lv['stop_reason']}")  # fmt: skip
+    else:
+        scene = build(spec)
+        if not args.quiet:
+            print(f"{spec.name}: {scene.model.particle_count} vertices, {scene.model.tri_count} "
+                  f"triangles, {scene.model.hinge_count} hinges; dt = {scene.dt_s:.3g} s "
+                  f"(stability estimate {scene.dt_limit_s:.3g} s)", flush=True)  # fmt: skip
+        result = run_scene(scene, progress=None if not args.quiet else False)
     paths = write_outputs(scene, result, args.out, render=not args.no_render)
     if not args.quiet:
         m = result.metrics
@@ -439,6 +460,12 @@ def cmd_run(scene_path: Path, args) -> int:
               f"{m['wall_time_s']:.1f} s wall (+{m['compile_time_s']:.1f} s compile); "
               f"last frame: max displacement {m['max_displacement_m'] * 1e3:.3f} mm, "
               f"mean {m['mean_displacement_m'] * 1e3:.4f} mm")  # fmt: skip
+        if m.get("residual_mean_over_weight") is not None:
+            print(f"equilibrium residual: mean {m['residual_mean_over_weight']:.3f}, max "
+                  f"{m['residual_max_over_weight']:.2f} vertex weights")  # fmt: skip
+        if "total_wall_time_s" in m:
+            print(f"method {m['method']}: {m['total_wall_time_s']:.1f} s wall over all levels, "
+                  f"building and compilation included")  # fmt: skip
         print(guard_summary(m))
         print("wrote:")
         for p in paths.values():

@@ -9,12 +9,13 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from itertools import pairwise
 from pathlib import Path
 
 from sandbox.errors import SandboxError
 from sandbox.scene.budget import ResourceLimits, limits_from_table
+from sandbox.scene.multilevel_spec import MultilevelSpec, multilevel_from_table
 from sandbox.scene.plausible import PLAUSIBLE, PlausibleRanges, warn_scene
 from sandbox.sim.materials import Material, material_from_spec
 
@@ -138,6 +139,7 @@ class SceneSpec:
     seams: list[SeamSpec] = field(default_factory=list)
     source: str = "<scene>"
     limits: ResourceLimits = field(default_factory=ResourceLimits)  # refused above these
+    multilevel: MultilevelSpec | None = None  # run coarse to fine (sandbox.scene.multilevel)
 
 
 # ---------------------------------------------------------------------------- loading
@@ -162,7 +164,7 @@ def scene_from_dict(data: dict, *, source: str = "<scene>") -> SceneSpec:
     """Check a scene given as nested dicts (as read from TOML)."""
     r = _Reader(source)
     r.keys(data, "", {"scene", "simulation", "stop", "cloth", "collision", "collider", "seam",
-                      "limits"})  # fmt: skip
+                      "limits", "multilevel"})  # fmt: skip
     head = data.get("scene", {})
     r.keys(head, "[scene]", {"name", "description"})
     spec = SceneSpec(
@@ -173,6 +175,9 @@ def scene_from_dict(data: dict, *, source: str = "<scene>") -> SceneSpec:
     spec.simulation = _simulation(r, data.get("simulation", {}))
     spec.stop = _stop(r, data.get("stop", {}))
     spec.limits = limits_from_table(data.get("limits", {}), spec.limits, source)
+    if "multilevel" in data:
+        r.keys(data["multilevel"], "[multilevel]", {f.name for f in fields(MultilevelSpec)})
+        spec.multilevel = multilevel_from_table(data["multilevel"], source)
     cloths = data.get("cloth", [])
     if not isinstance(cloths, list) or not cloths:
         raise SandboxError(f"{source}: the scene needs at least one [[cloth]] table")
