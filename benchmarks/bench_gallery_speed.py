@@ -134,7 +134,7 @@ def reference_distance(scene, x: np.ndarray, ref: dict) -> np.ndarray | None:
     mesh, else to the reference's surface at the vertex's own pattern coordinates (its
     panel's reference triangle holding them, by barycentric coordinates). None when
     neither applies (an old reference of another mesh, or a panel it does not have)."""
-    from sandbox.garment.multilevel import barycentric_locate
+    from sandbox.scene.multilevel import barycentric_locate
 
     xr = ref["x"]
     if xr.shape == x.shape:

@@ -9,7 +9,8 @@ import pytest
 
 from sandbox.errors import SandboxError
 from sandbox.garment import DrapeConfig
-from sandbox.garment.multilevel import _layers_crossed, barycentric_locate, carry, panel_maps
+from sandbox.garment.multilevel import _layers_crossed, carry, panel_maps
+from sandbox.scene.multilevel import barycentric_locate
 from sandbox.sim.inertia import scaled_inertia
 
 
@@ -171,12 +172,12 @@ def test_a_triangle_squeezed_flat_does_not_set_the_fine_step():
     negative (a compression instability, not a stiffness) and far larger than the rest
     shape's, so the fine level's limit is the rest shape's bound; the sheet as it hangs
     keeps its measured limit."""
-    from sandbox.garment.multilevel import _fine_limit
+    from sandbox.scene.multilevel import settle_limit
     from sandbox.sim.stability import dominant_eigenvalue, measured_stable_dt
 
     sc = _hanging_sheet(60.0)
     bound = sc.dt_limit_s
-    assert _fine_limit(sc, bound) == pytest.approx(
+    assert settle_limit(sc, bound) == pytest.approx(
         measured_stable_dt(sc.solver, sc.state, sc.control, sc.model), rel=1e-9
     )
     x = sc.state.positions().astype(np.float64)
@@ -186,4 +187,4 @@ def test_a_triangle_squeezed_flat_does_not_set_the_fine_step():
     lam = dominant_eigenvalue(sc.solver, sc.state, sc.control, sc.model)
     assert lam < 0.0
     assert measured_stable_dt(sc.solver, sc.state, sc.control, sc.model) < 0.5 * bound
-    assert _fine_limit(sc, bound) == bound
+    assert settle_limit(sc, bound) == bound

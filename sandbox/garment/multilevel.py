@@ -25,42 +25,10 @@ import numpy as np
 
 from sandbox.garment.build import build_drape
 from sandbox.scene.build import retime
+from sandbox.scene.multilevel import barycentric_locate, settle_limit
 from sandbox.sim.inertia import scaled_inertia
-from sandbox.sim.stability import dominant_eigenvalue, limit_of
 
 log = logging.getLogger(__name__)
-
-
-def barycentric_locate(points: np.ndarray, uv: np.ndarray, triangles: np.ndarray,
-                       chunk: int = 2048) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
-    """The triangle of a 2D mesh each point lies in, and its barycentric coordinates.
-
-    Args:
-        points: (p, 2) query points [m].
-        uv: (n, 2) the mesh's vertices [m]; ``triangles``: (m, 3) vertex indices.
-    Returns ``(tri (p,) int, bary (p, 3))``. A point outside the mesh (a curved outline
-    discretised differently by two meshes) gets the triangle it is least outside of, its
-    coordinates clamped to >= 0 and renormalised: the nearest point of that triangle, near
-    enough where the two outlines differ by a fraction of an edge.
-    """
-    points = np.asarray(points, np.float64)
-    a, b, c = (uv[triangles[:, k]] for k in range(3))
-    e1, e2 = b - a, c - a
-    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-    det = np.where(np.abs(det) > 1e-300, det, 1e-300)
-    tri = np.empty(len(points), np.int64)
-    bary = np.empty((len(points), 3))
-    for s in range(0, len(points), chunk):
-        d = points[s : s + chunk, None, :] - a[None]  # (q, m, 2)
-        l1 = (d[..., 0] * e2[:, 1] - d[..., 1] * e2[:, 0]) / det
-        l2 = (e1[:, 0] * d[..., 1] - e1[:, 1] * d[..., 0]) / det
-        lam = np.stack([1.0 - l1 - l2, l1, l2], axis=-1)  # (q, m, 3)
-        best = np.argmax(lam.min(axis=-1), axis=1)
-        tri[s : s + chunk] = best
-        bary[s : s + chunk] = lam[np.arange(len(best)), best]
-    bary = np.clip(bary, 0.0, None)
-    bary /= bary.sum(axis=1, keepdims=True)
-    return tri, bary
 
 
 def panel_maps(coarse_meshes: dict, fine_meshes: dict) -> dict:
@@ -174,7 +142,7 @@ def drape_coarse_to_fine(pattern, mannequin, *, fabric=None, edge_length_m: floa
     with scaled_inertia(fine, inertia):
         if config.fine_measured_dt and explicit:
             # the fine level starts next to rest, where the bound is ~1.4x too cautious
-            retime(fine, _fine_limit(fine, fine.dt_limit_s * math.sqrt(inertia)),
+            retime(fine, settle_limit(fine, fine.dt_limit_s * math.sqrt(inertia)),
                    at_most=2.0 * math.sqrt(inertia))  # fmt: skip
         elif inertia != 1.0:
             retime(fine, fine.dt_limit_s * math.sqrt(inertia), at_most=math.sqrt(inertia))
@@ -208,31 +176,6 @@ def drape_coarse_to_fine(pattern, mannequin, *, fabric=None, edge_length_m: floa
         total_wall_time_s=coarse_wall + build_s + m["wall_time_s"],
     )
     return fine, result, coarse_build_s + build_s
-
-
-SQUEEZED_BELOW = 0.5
-"""A fine level whose measured stability limit is below this fraction of its rest shape's
-bound has an element squeezed flat by the carry (see :func:`_fine_limit`)."""
-
-
-def _fine_limit(fine, bound_s: float) -> float:
-    """The fine level's explicit stability limit [s], measured on its carried shape, or
-    ``bound_s`` (its rest shape's bound) where the measure sees an element squeezed flat.
-
-    The carry can squeeze a triangle flat against the body (the tank top under the arm:
-    two vertices 0.13 mm apart that rest 7 mm apart). Its mode is a compression
-    instability, which the body's contact holds (300 steps did not undo it): the power
-    method's dominant eigenvalue is negative, 80 times the rest shape's largest in size,
-    and a limit taken from it cut the whole settling to 15 µs steps (28,000 of them, 75 s
-    wall, against 7.5 s). A negative dominant eigenvalue limits no step, so then the
-    bound is used; the guard stays the safety net."""
-    lam = dominant_eigenvalue(fine.solver, fine.state, fine.control, fine.model)
-    limit = limit_of(lam)
-    if lam < 0.0 and limit < SQUEEZED_BELOW * bound_s:
-        log.info("fine level: an element squeezed flat (eigenvalue %.3g /s^2); step from "
-                 "the rest shape's bound", lam)  # fmt: skip
-        return bound_s
-    return limit
 
 
 def _layers_crossed(metrics: dict, scene, config) -> bool:
