@@ -32,6 +32,7 @@ DEMO = "docs/demo/metrics.json"
 REPORT = "docs/report/report.json"
 BENCH_STEP = "docs/results/bench_step.txt"
 GALLERY_SPEED = "docs/results/gallery_speed_coarse_to_fine.json"
+PEER_REST = "docs/results/peer_sheet_rest.json"
 #: GarmentCode's examples (benchmarks/bench_garmentcode.py): (table tag, what it drapes on)
 GARMENTCODE = (("mean_all_3cm", "3 cm, on the body they were drafted for (mean_all)"),
                ("mean_all_1.5cm", "1.5 cm (coarse to fine), on mean_all"),
@@ -116,6 +117,23 @@ def gallery_speed_figures(root: Path) -> list[Figure]:
         Figure(f"{label}: the same rest shape as the direct 1 cm reference?", shape, command,
                GALLERY_SPEED),
     ]  # fmt: skip
+
+
+def peer_rest_figure(root: Path) -> Figure:
+    """The peer's sheet on a sphere brought to rest, coarse to fine against direct
+    (benchmarks/bench_peer_rest.py)."""
+    r = _read_json(root, PEER_REST)
+    try:
+        ml, d, shapes = r["coarse_to_fine"], r["direct"], r["shapes"]
+        value = (f"{ml['wall_s']:.1f} s coarse to fine (residual mean "
+                 f"{ml['residual_mean_over_weight']:.2f} weights), {d['wall_s']:.1f} s direct "
+                 f"({d['residual_mean_over_weight']:.2f}); rest shapes "
+                 f"{shapes['distance_mean_m'] * 100:.1f} cm apart on average")  # fmt: skip
+    except (KeyError, TypeError) as exc:
+        raise SandboxError(f"{PEER_REST}: missing {exc}") from None
+    return Figure("A peer's 1 m sheet (65 x 65 grid) dropped on a sphere: wall time to rest, "
+                  "certified by the equilibrium residual", value,
+                  "python benchmarks/bench_peer_rest.py", PEER_REST)  # fmt: skip
 
 
 def garmentcode_figures(root: Path) -> list[Figure]:
@@ -271,6 +289,7 @@ def figures(root: Path | str = ".") -> list[Figure]:
         *gallery_figures(root, GALLERY, "Gallery, 1 cm, size 12, direct symplectic Euler",
                          "python -m sandbox gallery --method direct --jobs 2"),
         *gallery_speed_figures(root),
+        peer_rest_figure(root),
         *gallery_figures(root, GALLERY_IMPLICIT, "Gallery, 3 cm, size 12, implicit Euler",
                          "python -m sandbox gallery --integrator implicit_euler --jobs 2 "
                          "--out docs/gallery-implicit"),
