@@ -117,9 +117,12 @@ def main() -> None:
         f"{platform.python_version()}",
         "date": time.strftime("%Y-%m-%d"),
         **runs,
-        "shapes": {"distance_mean_m": float(dist.mean()),
-                   "distance_95_m": float(np.percentile(dist, 95)),
-                   "coarse_to_fine": _shape(a), "direct": _shape(b)},  # fmt: skip
+        "shapes": {
+            "distance_mean_m": float(dist.mean()),
+            "distance_95_m": float(np.percentile(dist, 95)),
+            "coarse_to_fine": _shape(a),
+            "direct": _shape(b),
+        },  # fmt: skip
     }
     text = markdown(result)
     print(text)

@@ -41,8 +41,9 @@ def main() -> None:
     from sandbox.sim.solver import SymplecticEulerSolver
 
     spec = load_scene(SCENE)
-    sim = dataclasses.replace(spec.simulation, integrator="implicit_euler", linear_solver="cg",
-                              strain_damping_s=0.0)
+    sim = dataclasses.replace(
+        spec.simulation, integrator="implicit_euler", linear_solver="cg", strain_damping_s=0.0
+    )
     stop = dataclasses.replace(spec.stop, time_limit_s=args.time)
     spec = dataclasses.replace(spec, simulation=sim, stop=stop, multilevel=None)
     config = ImplicitConfig(max_newton=args.newton, compression_stiffness=args.compression)

@@ -69,8 +69,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("scene", type=Path, help="scene file (.toml)")
     p.add_argument("--out", type=Path, required=True, help="output directory (created)")
     p.add_argument("--no-render", action="store_true", help="skip the PNG")
-    p.add_argument("--direct", action="store_true",
-                   help="ignore the scene's [multilevel] table: run its own mesh from the start")
+    p.add_argument(
+        "--direct",
+        action="store_true",
+        help="ignore the scene's [multilevel] table: run its own mesh from the start",
+    )
     _add_runtime_flags(p)
     add_limit_flags(p)
 
@@ -429,9 +432,11 @@ def cmd_run(scene_path: Path, args) -> int:
     if spec.multilevel is not None and getattr(args, "direct", False):
         spec = dataclasses.replace(spec, multilevel=None)
 
+    def start():
+        runtime.init(args.arch, float64=args.float64)
+
     def build(level):
-        return build_scene(level, start_runtime=lambda: runtime.init(args.arch, float64=args.float64),
-                           limits=limits_from_args(args, level.limits))  # fmt: skip
+        return build_scene(level, start_runtime=start, limits=limits_from_args(args, level.limits))
 
     if spec.multilevel is not None:
         from sandbox.scene.multilevel import check_levels, run_multilevel

@@ -54,3 +54,31 @@ def test_every_command_simulates_in_float64_unless_asked_for_float32():
     assert gui_parser().parse_args([]).float64 is True
     assert gui_parser().parse_args(["--float32"]).float64 is False
     assert runtime.DEFAULT_FLOAT64 is True
+
+
+def test_a_compilation_error_still_names_the_file_line_and_source():
+    """The front end's shortcuts (source read once per function, short positions) keep what
+    a compilation error tells: the file, the line, the function and the source line."""
+    from taichi.lang import kernel_impl
+
+    runtime.ensure_init()
+    assert getattr(kernel_impl._get_tree_and_ctx, "_sandbox_cached", False)
+
+    @ti.func
+    def twice(a):
+        return 2.0 * a
+
+    @ti.kernel
+    def good() -> float:
+        return twice(1.5) + twice(0.25)  # the same function inlined twice
+
+    assert good() == pytest.approx(3.5)
+
+    @ti.kernel
+    def bad() -> float:
+        return twice(undefined_name)  # noqa: F821
+
+    with pytest.raises(Exception) as err:
+        bad()
+    text = str(err.value)
+    assert "test_runtime.py" in text and "undefined_name" in text and "bad" in text

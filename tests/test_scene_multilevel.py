@@ -81,7 +81,8 @@ name = "sheet"
 size_m = [0.4, 0.4]
 mesher = "grid"
 edge_length_m = 0.02
-material = { density_kg_m2 = 0.2, stretch_u_N_m = 2000.0, stretch_v_N_m = 2000.0, shear_N_m = 800.0, bend_Nm = 1e-5 }
+material = { density_kg_m2 = 0.2, stretch_u_N_m = 2000.0, stretch_v_N_m = 2000.0, \
+  shear_N_m = 800.0, bend_Nm = 1e-5 }
 origin_m = [-0.2, 0.15, 0.2]
 rotation_deg = [-90.0, 0.0, 0.0]
 [[collider]]
@@ -122,3 +123,19 @@ def test_a_sheet_on_a_ball_rests_coarse_to_fine_where_it_rests_directly(tmp_path
             assert "levels" not in m
     heights = {how: x[:, 1].mean() for how, x in shapes.items()}
     assert abs(heights["multilevel"] - heights["direct"]) < 0.01
+
+
+def test_a_coarse_level_short_of_rest_hands_over_to_the_direct_run():
+    """A coarsest level stopped by its time limit has no rest shape to carry: the scene
+    runs on its own mesh from the start, and its metrics say so."""
+    from sandbox.scene.build import build_scene
+    from sandbox.scene.multilevel import run_multilevel
+
+    spec = sheet_spec(stop={"time_limit_s": 0.1}, multilevel={"coarse_edge_length_m": 0.05})
+    scene, result = run_multilevel(spec, build_scene, progress=False)
+    m = result.metrics
+    assert m["method"] == "direct (coarse level not at rest)"
+    assert [lv["stop_reason"] for lv in m["levels"]] == ["time limit", "time limit"]
+    assert scene.model.particle_count == m["levels"][1]["vertex_count"]
+    assert m["levels"][0]["vertex_count"] < m["levels"][1]["vertex_count"]
+    assert scene.spec.simulation.damping_per_s == spec.simulation.damping_per_s

@@ -148,8 +148,9 @@ def run_multilevel(spec, build, *, progress: bool | None = None):
             result = _settle(scene, ml, progress)
         levels.append(_level_row(result.metrics, edge, time.perf_counter() - t_build))
         if edge is not None and k == 0 and not result.converged:
-            log.warning("%s: the coarsest level (%.3g m) ended without reaching its stop rule "
-                        "(%s); running the scene directly", spec.name, edge, result.reason)  # fmt: skip
+            log.warning("%s: the coarsest level (%.3g m) ended without reaching its stop "
+                        "rule (%s); running the scene directly",
+                        spec.name, edge, result.reason)  # fmt: skip
             method = "direct (coarse level not at rest)"
             t_build = time.perf_counter()
             scene = build(dataclasses.replace(spec, multilevel=None))
@@ -180,8 +181,8 @@ def _level_spec(spec, edge, ml: MultilevelSpec, *, first: bool):
         damping = ml.settle_damping_per_s
     cloths = spec.cloths if edge is None else [
         dataclasses.replace(c, edge_length_m=edge) for c in spec.cloths]  # fmt: skip
-    return dataclasses.replace(spec, cloths=cloths, multilevel=None,
-                               simulation=dataclasses.replace(sim, damping_per_s=damping))  # fmt: skip
+    simulation = dataclasses.replace(sim, damping_per_s=damping)
+    return dataclasses.replace(spec, cloths=cloths, multilevel=None, simulation=simulation)
 
 
 def _settle(scene: Scene, ml: MultilevelSpec, progress):

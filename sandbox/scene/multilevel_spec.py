@@ -57,5 +57,3 @@ def multilevel_from_table(t: dict, source: str) -> MultilevelSpec:
                                     t.get("settle_inertia_scale", spec.settle_inertia_scale), 1.0,
                                     strict=False),
     )  # fmt: skip
-
-
