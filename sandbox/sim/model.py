@@ -19,6 +19,7 @@ import taichi as ti
 
 from sandbox import runtime
 from sandbox.errors import SandboxError
+from sandbox.sim.upload import upload
 
 
 @dataclass
@@ -128,15 +129,12 @@ class Model:
         come close to within this distance and keeps it there, as thread holds a stitch
         however hard the cloth pulls. A 0-D field: set it any time."""
         inv_mass = np.where(pinned, 0.0, 1.0 / np.maximum(mass, 1e-30))
-        if n:
-            self.particle_mass.from_numpy(_f(mass))
-            self.particle_inv_mass.from_numpy(_f(inv_mass))
-        if m:
-            self.tri_indices.from_numpy(tri_indices.astype(np.int32))
-            self.tri_rest_inv.from_numpy(_f(tri_rest_inv))
-            self.tri_rest_area.from_numpy(_f(tri_rest_area))
-            self.tri_stiffness.from_numpy(_f(tri_stiffness))
-        self.vert_tri_start, self.vert_tri_slot = _incidence(tri_indices, n)
+        # every static array in one kernel launch (sandbox.sim.upload)
+        loads = [(self.particle_mass, mass), (self.particle_inv_mass, inv_mass),
+                 (self.tri_indices, tri_indices), (self.tri_rest_inv, tri_rest_inv),
+                 (self.tri_rest_area, tri_rest_area),
+                 (self.tri_stiffness, tri_stiffness)]  # fmt: skip
+        self.vert_tri_start, self.vert_tri_slot = _incidence(tri_indices, n, loads)
         self.hinge_indices = None
         self.vert_hinge_start = self.vert_hinge_slot = None
         self.hinge_rest_angle = None
@@ -144,6 +142,15 @@ class Model:
         self.seam_pairs = self.seam_rest = self.seam_stiffness = None
         self.vert_seam_start = self.vert_seam_slot = self.seam_active = None
         self.seam_limit = None
+        if h:
+            self.hinge_indices = ti.Vector.field(4, ti.i32, shape=h)
+            self.hinge_rest_angle = ti.field(float, shape=h)
+            self.hinge_stiffness = ti.field(float, shape=h)
+            loads += [(self.hinge_indices, hinge_indices),
+                      (self.hinge_rest_angle, hinge_rest_angle),
+                      (self.hinge_stiffness, hinge_stiffness)]  # fmt: skip
+            self.vert_hinge_start, self.vert_hinge_slot = _incidence(hinge_indices, n, loads)
+        upload(loads)
         # Seam fields exist only in a scene that sews, or that may sew live (the app's
         # click-to-sew): ``seam_capacity`` springs are allocated once, ``seam_active`` (0-D)
         # holds the live count the kernels loop over, so sewing never recompiles.
@@ -167,14 +174,6 @@ class Model:
                 np.zeros(0) if seam_rest is None else seam_rest,
                 np.zeros(0) if seam_stiffness is None else seam_stiffness,
             )
-        if h:
-            self.hinge_indices = ti.Vector.field(4, ti.i32, shape=h)
-            self.hinge_rest_angle = ti.field(float, shape=h)
-            self.hinge_stiffness = ti.field(float, shape=h)
-            self.hinge_indices.from_numpy(hinge_indices.astype(np.int32))
-            self.hinge_rest_angle.from_numpy(_f(hinge_rest_angle))
-            self.hinge_stiffness.from_numpy(_f(hinge_stiffness))
-            self.vert_hinge_start, self.vert_hinge_slot = _incidence(hinge_indices, n)
 
     def set_seams(self, pairs: np.ndarray, rest: np.ndarray, stiffness: np.ndarray) -> None:
         """Replace the seam springs (§2.4) with ``pairs`` (k, 2) particle indices, ``rest``
@@ -198,14 +197,12 @@ class Model:
         pad_rest[:k] = rest
         pad_k = np.zeros(cap)
         pad_k[:k] = stiffness
-        self.seam_pairs.from_numpy(pad_pairs)
-        self.seam_rest.from_numpy(_f(pad_rest))
-        self.seam_stiffness.from_numpy(_f(pad_k))
         start, slot = _incidence_arrays(pairs, n)
         pad_slot = np.zeros(2 * cap, np.int32)
         pad_slot[: len(slot)] = slot
-        self.vert_seam_start.from_numpy(start)
-        self.vert_seam_slot.from_numpy(pad_slot)
+        upload([(self.seam_pairs, pad_pairs), (self.seam_rest, pad_rest),
+                (self.seam_stiffness, pad_k), (self.vert_seam_start, start),
+                (self.vert_seam_slot, pad_slot)])  # fmt: skip
         self.seam_active[None] = k
         self.seam_limit.fill(-1.0)
         self.seam_count = k
@@ -249,14 +246,13 @@ def _incidence_arrays(elements: np.ndarray, n: int) -> tuple[np.ndarray, np.ndar
     return start, order.astype(np.int32)
 
 
-def _incidence(elements: np.ndarray, n: int):
-    """:func:`_incidence_arrays` as Taichi fields ``(start (n+1,), slot (max(1, k·e),))``."""
+def _incidence(elements: np.ndarray, n: int, loads: list):
+    """:func:`_incidence_arrays` as Taichi fields ``(start (n+1,), slot (max(1, k·e),))``,
+    their contents appended to ``loads`` for :func:`~sandbox.sim.upload.upload`."""
     start, slot = _incidence_arrays(elements, n)
     start_f = ti.field(ti.i32, shape=n + 1)
     slot_f = ti.field(ti.i32, shape=max(1, len(slot)))
-    start_f.from_numpy(start)
-    if len(slot):
-        slot_f.from_numpy(slot)
+    loads += [(start_f, start), (slot_f, slot)]
     return start_f, slot_f
 
 
