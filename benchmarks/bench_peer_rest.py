@@ -64,7 +64,7 @@ def markdown(r: dict) -> str:
         "friction 0.5, 3.9 mm thickness, 1/60 s frames). Stop: the paper's displacement "
         "rule and a mean equilibrium residual under 0.25 vertex weights. Wall times include "
         "building the meshes and compiling the kernels; both runs in one process, one after "
-        "the other, nothing else on the machine.",
+        f"the other. Load: {r.get('load') or 'nothing else ran on the machine'}.",
         "",
         "| run | level | vertices | steps | step µs | simulated s | wall s | stop | "
         "residual mean |",
@@ -102,6 +102,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=Path("docs/results/peer_sheet_rest"),
                     help="write OUT.md and OUT.json")  # fmt: skip
+    ap.add_argument("--load", default="", help="what else the machine ran meanwhile, or how "
+                    "its speed compared, for the table's header")  # fmt: skip
     args = ap.parse_args()
     from sandbox import runtime
 
@@ -116,6 +118,7 @@ def main() -> None:
         "machine": f"{platform.machine()}, {os.cpu_count()} cores, Python "
         f"{platform.python_version()}",
         "date": time.strftime("%Y-%m-%d"),
+        "load": args.load,
         **runs,
         "shapes": {
             "distance_mean_m": float(dist.mean()),

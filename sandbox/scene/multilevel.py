@@ -187,7 +187,10 @@ def _level_spec(spec, edge, ml: MultilevelSpec, *, first: bool):
 
 def _settle(scene: Scene, ml: MultilevelSpec, progress):
     """Run a finer level from its carried shape to the stop rule: inertia scaled by
-    ``ml.settle_inertia_scale`` (explicit scenes), its step measured on the carried shape."""
+    ``ml.settle_inertia_scale`` (explicit scenes), its step from the stability limit
+    measured on the carried shape, trusted up to twice the rest shape's bound (the guard
+    stays the safety net). The cap is on the limit, not the step, so that strain-rate
+    damping, which shortens a short limit's step more, is applied to the limit used."""
     from sandbox.scene.run import run_scene
 
     explicit = scene.spec.simulation.integrator == "symplectic_euler"
@@ -195,7 +198,8 @@ def _settle(scene: Scene, ml: MultilevelSpec, progress):
     with scaled_inertia(scene, s):
         if explicit:
             bound = scene.dt_limit_s * math.sqrt(s)
-            retime(scene, settle_limit(scene, bound), at_most=2.0 * math.sqrt(s))
+            limit = min(settle_limit(scene, bound), 2.0 * bound)
+            retime(scene, limit, at_most=math.inf)
         result = run_scene(scene, progress=progress)
     if s != 1.0:  # the step of the cloth's own inertia, for whatever runs it next
         retime(scene, scene.dt_limit_s / math.sqrt(s), at_most=1.0)
