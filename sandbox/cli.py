@@ -439,9 +439,8 @@ def cmd_run(scene_path: Path, args) -> int:
         return build_scene(level, start_runtime=start, limits=limits_from_args(args, level.limits))
 
     if spec.multilevel is not None:
-        from sandbox.scene.multilevel import check_levels, run_multilevel
+        from sandbox.scene.multilevel import run_multilevel
 
-        check_levels(spec)  # before anything is built
         scene, result = run_multilevel(spec, build, progress=None if not args.quiet else False)
         if not args.quiet:
             for lv in result.metrics["levels"]:

@@ -41,11 +41,9 @@ def test_a_bad_multilevel_table_names_the_file_the_table_and_the_problem(table, 
     assert words in str(err.value)
 
 
-def test_a_coarse_level_finer_than_the_cloth_is_refused():
-    from sandbox.scene.multilevel import check_levels
-
+def test_a_coarse_level_finer_than_the_cloth_is_refused_when_the_scene_is_read():
     with pytest.raises(SandboxError, match="must all be longer than the cloths' edge"):
-        check_levels(sheet_spec(multilevel={"coarse_edge_length_m": 0.01}))
+        sheet_spec(multilevel={"coarse_edge_length_m": 0.01})
 
 
 def test_a_flat_cloth_carried_between_its_meshes_lands_on_its_own_rest_shape():

@@ -28,9 +28,8 @@ import time
 
 import numpy as np
 
-from sandbox.errors import SandboxError
 from sandbox.scene.build import Scene, retime
-from sandbox.scene.multilevel_spec import MultilevelSpec
+from sandbox.scene.multilevel_spec import MultilevelSpec, check_levels
 from sandbox.sim.inertia import scaled_inertia
 from sandbox.sim.stability import dominant_eigenvalue, limit_of
 
@@ -39,15 +38,6 @@ log = logging.getLogger(__name__)
 SQUEEZED_BELOW = 0.5
 """A settling level whose measured stability limit is below this fraction of its rest
 shape's bound has an element squeezed flat by the carry (see :func:`settle_limit`)."""
-
-
-def check_levels(spec) -> None:
-    """Every coarse level must be coarser than every cloth of the scene ``spec``."""
-    finest = max(c.edge_length_m for c in spec.cloths)
-    coarse = spec.multilevel.coarse_edge_length_m
-    if coarse[-1] <= finest:
-        raise SandboxError(f"{spec.source}: [multilevel] coarse_edge_length_m {list(coarse)} "
-                           f"must all be longer than the cloths' edge ({finest} m)")  # fmt: skip
 
 
 def barycentric_locate(points: np.ndarray, uv: np.ndarray, triangles: np.ndarray,

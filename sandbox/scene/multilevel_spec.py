@@ -57,3 +57,12 @@ def multilevel_from_table(t: dict, source: str) -> MultilevelSpec:
                                     t.get("settle_inertia_scale", spec.settle_inertia_scale), 1.0,
                                     strict=False),
     )  # fmt: skip
+
+
+def check_levels(spec) -> None:
+    """Every coarse level must be coarser than every cloth of the scene ``spec``."""
+    finest = max(c.edge_length_m for c in spec.cloths)
+    coarse = spec.multilevel.coarse_edge_length_m
+    if coarse[-1] <= finest:
+        raise SandboxError(f"{spec.source}: [multilevel] coarse_edge_length_m {list(coarse)} "
+                           f"must all be longer than the cloths' edge ({finest} m)")  # fmt: skip

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from sandbox.errors import SandboxError
 from sandbox.scene.budget import ResourceLimits, limits_from_table
-from sandbox.scene.multilevel_spec import MultilevelSpec, multilevel_from_table
+from sandbox.scene.multilevel_spec import MultilevelSpec, check_levels, multilevel_from_table
 from sandbox.scene.plausible import PLAUSIBLE, PlausibleRanges, warn_scene
 from sandbox.sim.materials import Material, material_from_spec
 
@@ -175,9 +175,6 @@ def scene_from_dict(data: dict, *, source: str = "<scene>") -> SceneSpec:
     spec.simulation = _simulation(r, data.get("simulation", {}))
     spec.stop = _stop(r, data.get("stop", {}))
     spec.limits = limits_from_table(data.get("limits", {}), spec.limits, source)
-    if "multilevel" in data:
-        r.keys(data["multilevel"], "[multilevel]", {f.name for f in fields(MultilevelSpec)})
-        spec.multilevel = multilevel_from_table(data["multilevel"], source)
     cloths = data.get("cloth", [])
     if not isinstance(cloths, list) or not cloths:
         raise SandboxError(f"{source}: the scene needs at least one [[cloth]] table")
@@ -192,6 +189,10 @@ def scene_from_dict(data: dict, *, source: str = "<scene>") -> SceneSpec:
         raise SandboxError(f"{source}: seam must be an array of tables [[seam]]")
     by_name = {c.name: c for c in spec.cloths}
     spec.seams = [_seam(r, t, f"seam[{i}]", by_name) for i, t in enumerate(seams)]
+    if "multilevel" in data:
+        r.keys(data["multilevel"], "[multilevel]", {f.name for f in fields(MultilevelSpec)})
+        spec.multilevel = multilevel_from_table(data["multilevel"], source)
+        check_levels(spec)
     names = [c.name for c in spec.cloths]
     dup = {n for n in names if names.count(n) > 1}
     if dup:
