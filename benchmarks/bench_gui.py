@@ -37,14 +37,26 @@ def main() -> None:
         default=None,
         help="fixed simulation wall time per frame [s] (default: what 30 fps leaves)",
     )
+    ap.add_argument(
+        "--integrator", default="implicit_euler", choices=("implicit_euler", "symplectic_euler")
+    )
+    ap.add_argument("--newton", type=int, default=3, help="Newton iterations a step at most")
+    ap.add_argument("--steps", type=int, default=2, help="implicit steps per 1/30 s frame")
     add_precision_flags(ap)
     args = ap.parse_args()
     from sandbox import runtime
     from sandbox.app.gui import FrameBudget, Renderer, run_window
-    from sandbox.app.session import COVER_EVERY_FRAMES, Session
+    from sandbox.app.session import COVER_EVERY_FRAMES, LiveSolver, Session
 
     runtime.init("cpu", float64=args.float64)
-    s = Session(args.garment, edge_cm=args.edge_cm, sewn=True)
+    s = Session(
+        args.garment,
+        edge_cm=args.edge_cm,
+        sewn=True,
+        solver=LiveSolver(
+            integrator=args.integrator, newton_iterations=args.newton, steps_per_frame=args.steps
+        ),
+    )
     s.set_gravity(True)
     windowed = bool(os.environ.get("DISPLAY"))  # a real window (e.g. under Xvfb) if possible
     r = Renderer(s, tuple(args.size), show_window=windowed)

@@ -267,6 +267,8 @@ def check_gui(args) -> list | None:
     check_positive(args.fps, "--fps")
     check_positive(args.sim_ms, "--sim-ms")
     check_positive(args.edge_cm, "--edge-cm")
+    check_positive(getattr(args, "newton", None), "--newton", minimum=1)
+    check_positive(getattr(args, "steps", None), "--steps", minimum=1)
     check_size(args.size)
     check_fabric(args.fabric)
     from sandbox.garment.inputs import check_garment

@@ -370,7 +370,7 @@ def test_contact_planes_find_the_nearest_face_whatever_the_reach():
     @ti.kernel
     def query(reach: float):
         for i in xs:
-            count, n1, o1, _n2, _o2 = body.contact_planes(xs[i], reach)
+            count, n1, o1, _n2, _o2 = body.contact_planes(xs[i], reach, reach)
             out[i] = ti.Vector([n1[0], n1[1], n1[2], count])
 
     for reach in (0.01, 0.05, 0.2):  # 0.2 m: the whole ball in reach
@@ -410,7 +410,8 @@ def test_a_step_longer_than_the_query_box_still_stops_at_the_body():
 def test_contact_planes_add_a_crease_plane_only_where_the_body_is_concave():
     """BodyCollider.contact_planes: near the L's inner corner (a concave crease) the nearest
     face's plane and the other face's; near an outer corner (convex) the nearest face's
-    only, since the other face's plane would cut into it."""
+    only, since the other face's plane would cut into it, also right above the corner's
+    edge."""
     import taichi as ti
 
     from sandbox.collision.body import BodyCollider
@@ -421,7 +422,7 @@ def test_contact_planes_add_a_crease_plane_only_where_the_body_is_concave():
 
     @ti.kernel
     def query(x: ti.types.vector(3, float), reach: float):
-        count, n1, o1, n2, o2 = body.contact_planes(x, reach)
+        count, n1, o1, n2, o2 = body.contact_planes(x, reach, reach)
         out[0] = count
         for k in ti.static(range(3)):
             out[1 + k] = n1[k]
@@ -440,6 +441,9 @@ def test_contact_planes_add_a_crease_plane_only_where_the_body_is_concave():
     assert np.allclose(n2, [0, 1, 0], atol=1e-6) and o2 == pytest.approx(1.0)  # face y = 1
     count, n1, o1, *_ = planes([2.1, 0.9, 0.5])  # beside the outer corner (2, 1)
     assert count == 1 and np.allclose(n1, [1, 0, 0], atol=1e-6) and o1 == pytest.approx(2.0)
+    # nearest to the outer corner's edge itself, which lies on both faces' planes: still
+    # one plane (held in front of both, a vertex there was pushed over the ridge and back)
+    assert planes([2.1, 1.1, 0.5])[0] == 1
     assert planes([3.0, 3.0, 0.5])[0] == 0  # nothing within reach
 
 

@@ -480,3 +480,39 @@ def test_implicit_friction_on_the_incline_follows_coulomb(mu):
     else:
         travelled = 0.5 * run.extra["acceleration_m_s2"] * run.sim_time_s**2
         assert abs(travelled) < 1e-3
+
+
+def _incline_scene(mu: float, reuse_m: float):
+    from sandbox.validate.cases import incline_spec
+
+    spec, _ = incline_spec(0.025, mu)
+    spec.simulation.integrator = "implicit_euler"
+    return build_scene(spec, implicit=ImplicitConfig(plane_reuse_m=reuse_m))
+
+
+def test_contact_planes_are_kept_while_cloth_rests_and_found_again_when_the_body_moves():
+    """A square sticking on the 30° incline (μ = 0.7) moves less than plane_reuse_m a step,
+    so after its first step it keeps the planes it found (``c_at`` stays where they were
+    looked up) and runs as with a query every step (plane_reuse_m = 0), to round-off; a
+    body moved 5 mm away by ``update`` (its generation changes) has every plane found
+    again, 5 mm further back."""
+    runs = {}
+    for reuse in (1e-3, 0.0):
+        sc = _incline_scene(0.7, reuse)
+        s, state = sc.solver, sc.state
+        s.advance(state, sc.control, 1 / 60, 1)
+        at = s.c_at.to_numpy()[: sc.model.particle_count]
+        s.advance(state, sc.control, 1 / 60, 10)
+        kept = np.all(s.c_at.to_numpy()[: sc.model.particle_count] == at)
+        runs[reuse] = (state.positions(), kept, sc, at)
+    x_reuse, kept, sc, at = runs[1e-3]
+    assert kept and not runs[0.0][1]
+    assert np.abs(x_reuse - runs[0.0][0]).max() < 1e-7
+    # the body moves 5 mm away from the cloth: every plane is found again, 5 mm back
+    s, body = sc.solver, sc.model.colliders[0]
+    n = s.c_n.to_numpy()[0]  # the plane's normal, towards the cloth
+    offset = s.c_t.to_numpy()[: sc.model.particle_count].copy()
+    body.update(body.body_x.to_numpy().astype(float) - 0.005 * n)
+    s.advance(sc.state, sc.control, 1 / 60, 1)
+    moved = s.c_t.to_numpy()[: sc.model.particle_count] - offset
+    np.testing.assert_allclose(moved, -0.005, atol=1e-6)

@@ -69,12 +69,16 @@ def test_friction_without_a_self_collider_leaves_the_cloth_value_out():
 
 
 def test_build_scene_passes_the_solver_settings_on():
-    """The typed settings reach the solver and the self-collider; the scene's
-    ``linear_solver`` wins over the config's."""
-    scene = _scene("implicit_euler", implicit=ImplicitConfig(contact_stiffness=2e3,
-                                                             linear_solver="cg"),
+    """The typed settings reach the solver and the self-collider; a scene's
+    ``linear_solver`` wins over the config's unless it is "auto"."""
+    implicit = ImplicitConfig(contact_stiffness=2e3, linear_solver="cg")
+    scene = _scene("implicit_euler", implicit=implicit,
                    self_contact=SelfContactConfig(ccd_passes=4))  # fmt: skip
     assert scene.solver.config.contact_stiffness == 2e3
-    assert scene.solver.linear_solver == resolve_linear_solver("auto")
+    assert scene.solver.linear_solver == "cg"  # the scene says "auto"
     assert scene.model.self_collider.config.ccd_passes == 4
+    spec = scene.spec
+    spec.simulation.linear_solver = "direct"
+    assert build_scene(spec, implicit=implicit).solver.linear_solver == "direct"
+    assert resolve_linear_solver("auto") == "direct"  # on the CPU
     assert _scene("implicit_euler").solver.config == ImplicitConfig()

@@ -30,6 +30,27 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fabric", default=None, help="fabric preset (default: the garment's)")
     p.add_argument("--sewn", action="store_true", help="start with the pattern's seams sewn")
     p.add_argument("--self-collision", action="store_true", help="cloth against itself")
+    p.add_argument(
+        "--integrator",
+        default="implicit_euler",
+        choices=("implicit_euler", "symplectic_euler"),
+        help="implicit_euler (default: backward Euler with a fixed Newton budget, "
+        "the fastest to rest) or symplectic_euler (the paper's Eq. 2)",
+    )
+    p.add_argument(
+        "--newton",
+        type=int,
+        default=3,
+        metavar="N",
+        help="implicit_euler: Newton iterations per step at most (default 3)",
+    )
+    p.add_argument(
+        "--steps",
+        type=int,
+        default=2,
+        metavar="N",
+        help="implicit_euler: steps per 1/30 s frame (default 2)",
+    )
     p.add_argument("--offscreen", action="store_true", help="no window: play --script")
     p.add_argument("--script", type=Path, default=None, help="JSON list of actions")
     p.add_argument("--out", type=Path, default=Path("out/gui"), help="output directory")
@@ -62,7 +83,7 @@ def main(argv: list[str] | None = None) -> int:
         actions = check_gui(args)  # every flag and the script, before Taichi starts
         limits = limits_from_args(args)
         from sandbox import runtime
-        from sandbox.app.session import Session
+        from sandbox.app.session import LiveSolver, Session
 
         # a caller that started Taichi keeps its precision
         runtime.init(
@@ -70,7 +91,10 @@ def main(argv: list[str] | None = None) -> int:
         )
         session = Session(args.garment, size=args.size, edge_cm=args.edge_cm,
                           fabric=args.fabric, sewn=args.sewn,
-                          self_collision=args.self_collision, limits=limits)  # fmt: skip
+                          self_collision=args.self_collision, limits=limits,
+                          solver=LiveSolver(integrator=args.integrator,
+                                            newton_iterations=args.newton,
+                                            steps_per_frame=args.steps))  # fmt: skip
         if args.offscreen:
             from sandbox.app.script import run_script
 

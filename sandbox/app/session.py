@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 import taichi as ti
 
+from sandbox.app.live_solver import DEFAULT_LIVE_SOLVER, LiveSolver
 from sandbox.errors import SandboxError
 
 LIVE_SEAM_FACTOR = 1.0
@@ -85,12 +86,14 @@ class Session:
         size: database size of the starting mannequin. edge_cm: mesh edge [cm].
         fabric: fabric preset (default: the garment's own). sewn: start with the
         pattern's seams sewn. self_collision: cloth against itself (slower). limits: the
-        largest scene accepted (:class:`~sandbox.scene.budget.ResourceLimits`).
+        largest scene accepted (:class:`~sandbox.scene.budget.ResourceLimits`). solver:
+        how the cloth is stepped (:class:`LiveSolver`).
     """
 
     def __init__(self, garment: str = "sheath-dress", *, size: int = 12, edge_cm: float = 3.0,
                  fabric: str | None = None, sewn: bool = False,
-                 self_collision: bool = False, limits=None):  # fmt: skip
+                 self_collision: bool = False, limits=None,
+                 solver: LiveSolver = DEFAULT_LIVE_SOLVER):  # fmt: skip
         from sandbox import runtime
         from sandbox.garment import DrapeConfig, build_drape, make_mannequin, resolve_pattern
         from sandbox.garment.build import check_drape_size
@@ -106,7 +109,17 @@ class Session:
         self.mannequin = make_mannequin(size)
         self.pattern = resolve_pattern(garment, self.mannequin)
         self.fabric = fabric
-        config = DrapeConfig(self_collision=self_collision, limits=limits or ResourceLimits())
+        self.solver = solver
+        config = DrapeConfig(self_collision=self_collision, limits=limits or ResourceLimits(),
+                             integrator=solver.integrator,
+                             dt_s=1.0 / 30.0 / solver.steps_per_frame if solver.implicit
+                             else None)  # fmt: skip
+        implicit = None
+        if solver.implicit:
+            from sandbox.sim.implicit_config import ImplicitConfig
+
+            implicit = ImplicitConfig(max_newton=solver.newton_iterations, linear_solver="cg",
+                                      step_residual=False)  # fmt: skip
         check_drape_size(self.pattern, edge_cm / 100.0, material_for(self.pattern, fabric),
                          config, say=False)  # fmt: skip
         meshes_boundary = 0
@@ -119,7 +132,8 @@ class Session:
                                  edge_length_m=edge_cm / 100.0,
                                  config=config,
                                  sew_pattern=False,
-                                 seam_capacity=2 * meshes_boundary + 16)  # fmt: skip
+                                 seam_capacity=2 * meshes_boundary + 16,
+                                 implicit=implicit)  # fmt: skip
         self.model = self.scene.model
         self._fit_time_step()
         self.state = self.scene.state
@@ -386,10 +400,12 @@ class Session:
 
     # ------------------------------------------------------------------ simulation
     def _start_settling(self) -> None:
-        """Refit mode after a resize: damping :data:`SETTLE_DAMPING_PER_S`, inertia x
-        :data:`SETTLE_INERTIA` and the step x its square root (the same frame), until the
-        stop rule holds (:meth:`_finish_frame`) or :data:`SETTLE_MAX_FRAMES` have run. A new
-        resize while settling starts the count again."""
+        """Refit mode after a resize, until the stop rule holds with the body covered
+        (:meth:`_finish_frame`) or :data:`SETTLE_MAX_FRAMES` have run; a new resize while
+        settling starts the count again. Meanwhile the cloth is overdamped (damping
+        :data:`SETTLE_DAMPING_PER_S`); the explicit step also scales its inertia by
+        :data:`SETTLE_INERTIA` and its step by that's square root (the same frame), while
+        backward Euler keeps its step, stable at any damping."""
         from sandbox.sim.inertia import scale_inertia
 
         sc = self.scene
@@ -397,17 +413,19 @@ class Session:
             self._settle["frames"] = 0
             self._settle["t0"] = time.perf_counter()
             return
-        if sc.spec.simulation.integrator != "symplectic_euler" or not self.gravity:
+        if not self.gravity:
             return  # the sewing table (no gravity) has no rest to refit
         saved = {"frames": 0, "dt_s": sc.dt_s, "steps_per_frame": sc.steps_per_frame,
                  "damping": float(sc.control.damping_per_s[None]),
-                 "t0": time.perf_counter()}  # fmt: skip
+                 "t0": time.perf_counter(), "scaled": not self.solver.implicit}  # fmt: skip
+        self._settle = saved
+        self.stats.settling = True
         sc.control.damping_per_s[None] = SETTLE_DAMPING_PER_S
+        if self.solver.implicit:
+            return
         saved["inertia"] = scale_inertia(sc, SETTLE_INERTIA)
         steps = max(1, math.ceil(sc.steps_per_frame / math.sqrt(SETTLE_INERTIA)))
         self._set_step(saved["dt_s"] * saved["steps_per_frame"] / steps, steps)
-        self._settle = saved
-        self.stats.settling = True
 
     def _stop_settling(self) -> None:
         """Back to the cloth's own inertia, damping and step (after :meth:`_start_settling`)."""
@@ -416,9 +434,10 @@ class Session:
         from sandbox.sim.inertia import restore_inertia
 
         sc, saved = self.scene, self._settle
-        restore_inertia(sc, saved["inertia"])
+        if saved["scaled"]:
+            restore_inertia(sc, saved["inertia"])
+            self._set_step(saved["dt_s"], saved["steps_per_frame"])
         sc.control.damping_per_s[None] = saved["damping"]
-        self._set_step(saved["dt_s"], saved["steps_per_frame"])
         self._settle = None
         self.stats.settling = False
         self.last_refit = {"frames": saved["frames"], "at_rest": self.stats.converged,
@@ -540,7 +559,7 @@ class Session:
         x, v, seams = self.positions(), self.state.velocities(), list(self.seams)
         measurements = dict(self.measurements)
         fresh = Session(self.garment, size=self.size, fabric=preset, edge_cm=self.edge_cm,
-                        self_collision=self.self_collision)  # fmt: skip
+                        self_collision=self.self_collision, solver=self.solver)  # fmt: skip
         self.__dict__.update(fresh.__dict__)
         if measurements:
             self.set_measurements(**measurements)

@@ -41,6 +41,13 @@ TIE_M = 1e-12
 """Two triangles whose closest points to a vertex are this close in distance [m] tie (they
 share the closest point: an edge or a corner); see :meth:`BodyCollider.respond_split`."""
 BIN_PAD_THICKNESSES = 2.0
+NEAR_FIRST_CELLS = 0.5
+"""A nearest-face query looks first within this many cell sizes of the point (a box of at
+most 2 cells an axis) and searches its whole reach only when no face is that near: a face
+found there is the nearest within any larger reach too, since every face within a
+distance d of the point is binned in a cell of the point's box of half-width d. Cloth
+lying on the body finds its face in the first look (the sheath dress at 1.5 cm, 1/60 s
+steps: its contact planes 30.0 -> 27.2 ms a step; most of its vertices hang farther)."""
 CREASE_COS = 0.98
 """Two faces meet in a crease (:meth:`BodyCollider.contact_planes`) when their normals
 differ by more than this cosine (11°); flatter neighbours share the nearest face's plane."""
@@ -111,6 +118,9 @@ class BodyCollider:
         self._adjacency = None  # the faces' edge adjacency, made once (crease_adjacency)
         self._crease_extra = None  # follow_cloth's thickness per body vertex, without cover
         self.cover_depth_m = 0.0  # how deep the body showed through at the last cover [m]
+        self.generation = ti.field(ti.i32, shape=())
+        """How many times the body has changed (:meth:`update`): what solvers that keep
+        per-vertex contact queries compare to know they are still valid."""
         self.mu_s[None] = friction_static
         self.mu_k[None] = friction_kinetic
         # grid: cell size near the mean edge length, dims fixed from the first bounds
@@ -145,6 +155,7 @@ class BodyCollider:
         from sandbox import runtime
 
         self.body_x.from_numpy(v.astype(runtime.float_dtype()))
+        self.generation[None] += 1
         lo, hi = v.min(axis=0), v.max(axis=0)
         ratio = float(np.ptp(v, axis=0).max()) / max(self.extent_init, 1e-12)
         size = max(self.cell_size_init * ratio, float(((hi - lo) / np.array(self.dims)).max()))
@@ -397,9 +408,9 @@ class BodyCollider:
         return best, best_n, best_w
 
     @ti.func
-    def contact_planes(self, x, reach):
+    def contact_planes(self, x, reach, crease_reach):
         """Up to two body planes that cloth at x must stay in front of, from the faces
-        within ``reach`` [m] of x.
+        within ``reach`` [m] of x (the second within ``crease_reach`` [m]).
 
         Returns ``(count, n1, o1, n2, o2)``: n the faces' outward unit normals and o
         offsets such that n·y − o is the distance of y in front of the plane less the
@@ -427,7 +438,8 @@ class BodyCollider:
             n2, o2 = n1, o1
             e1 = self._extra_at(t1, self._closest_on(t1, x))
             e2 = e1
-            found2, t2 = self._nearest_face(x, reach, n1, self._closest_on(t1, x), True)
+            found2, t2 = self._nearest_face(x, ti.min(reach, crease_reach), n1,
+                                            self._closest_on(t1, x), True)  # fmt: skip
             if found2:
                 count = 2
                 n2, o2 = self._face_plane(t2, x)
@@ -438,10 +450,22 @@ class BodyCollider:
     @ti.func
     def _nearest_face(self, x, reach, n1, q1, crease: ti.template()):
         """``(found, t)``: the body face nearest to x within ``reach`` [m] (at most
-        :data:`NEAREST_REACH_CELLS` cells); with ``crease``,
-        only faces that meet face 1 (normal n1, point q1 nearest to x) in a concave crease:
-        their normal differs by more than CREASE_COS and q1 is in front of their plane."""
+        :data:`NEAREST_REACH_CELLS` cells); with ``crease``, only faces that meet face 1
+        (normal n1, point q1 nearest to x) in a concave crease: their normal differs by
+        more than CREASE_COS, q1 is in front of their plane and their centre in front of
+        face 1's (a convex ridge's faces fall behind each other's planes; its shared edge,
+        where q1 lies when x is nearest to the ridge, is on both planes). Looks within
+        :data:`NEAR_FIRST_CELLS` cells first, then, if nothing is that near, the whole reach."""
         within = ti.min(reach, NEAREST_REACH_CELLS * self.cell_size[None])  # searched whole
+        near = ti.min(within, NEAR_FIRST_CELLS * self.cell_size[None])
+        found, t_best = self._nearest_face_in(x, near, n1, q1, crease)
+        if not found and within > near:
+            found, t_best = self._nearest_face_in(x, within, n1, q1, crease)
+        return found, t_best
+
+    @ti.func
+    def _nearest_face_in(self, x, within, n1, q1, crease: ti.template()):
+        """:meth:`_nearest_face` in the cells of the box x ± ``within`` [m]."""
         lo = self._cell_of(x - within)
         hi = self._cell_of(x + within)
         best = within
@@ -457,7 +481,8 @@ class BodyCollider:
                     ok = 1
                     if ti.static(crease):
                         n, o = self._face_plane(t, x)
-                        if n.dot(n1) >= CREASE_COS or n.dot(q1) - o < 0.0:
+                        if (n.dot(n1) >= CREASE_COS or n.dot(q1) - o < 0.0
+                                or n1.dot(self.tri_centre[t] - q1) <= 0.0):  # fmt: skip
                             ok = 0
                     if ok:
                         d = (x - self._closest_on(t, x)).norm()

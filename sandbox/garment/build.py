@@ -62,6 +62,7 @@ def build_drape(
     place=None,
     like=None,
     contact_edge_m: float | None = None,
+    implicit=None,
 ):
     """Mesh, place and sew a pattern on the mannequin: a Scene for ``run_scene``.
 
@@ -81,6 +82,11 @@ def build_drape(
         contact_edge_m: the cloth edge [m] the body's crease thickness is sized for
             (:meth:`~sandbox.collision.body.BodyCollider.follow_cloth`); default the mesh's
             own. A coarse level sized for the fine mesh rests on the same body surface.
+        implicit: the implicit solver's settings (an
+            :class:`~sandbox.sim.implicit_config.ImplicitConfig`) when ``config.integrator``
+            is ``"implicit_euler"``: the window's fixed Newton budget a step. Given, the
+            warning for an implicit drape on a fine mesh is not logged (a drape's
+            convergence is not what such a budget asks for).
     Returns the Scene, with ``scene.garment`` its :class:`GarmentContext`.
     """
     # Taichi-backed modules load when a scene is built, not when the package is imported:
@@ -166,9 +172,9 @@ def build_drape(
         if c.cloth_edge_m != (contact_edge_m or edge):
             c.follow_cloth(contact_edge_m or edge)
     model.self_collider = build_self_collider(model, spec)
-    scene = scene_from_model(spec, model)
+    scene = scene_from_model(spec, model, implicit)
     log_built(scene, size.name)
-    warning = implicit_mesh_warning(config.integrator, edge)
+    warning = None if implicit is not None else implicit_mesh_warning(config.integrator, edge)
     if warning:
         log.warning("%s: %s", pattern.name, warning)
     # seams sewn live (the window's clicks) keep the cloth's own stiffness

@@ -320,10 +320,12 @@ def damped_step(limit_s: float, beta_s: float) -> float:
 def make_solver(model: Model, integrator: str, linear_solver: str = "auto",
                 implicit: ImplicitConfig | None = None) -> Integrator:  # fmt: skip
     """The solver named by ``[simulation] integrator`` (and ``linear_solver``, which
-    overrides ``implicit.linear_solver``)."""
+    overrides ``implicit.linear_solver`` unless it is ``"auto"`` and ``implicit`` is given)."""
     if integrator == "implicit_euler":
         from sandbox.sim.implicit import ImplicitEulerSolver
 
-        config = dataclasses.replace(implicit or ImplicitConfig(), linear_solver=linear_solver)
+        config = implicit or ImplicitConfig()
+        if implicit is None or linear_solver != "auto":
+            config = dataclasses.replace(config, linear_solver=linear_solver)
         return ImplicitEulerSolver(model, config=config)
     return SymplecticEulerSolver(model)

@@ -122,6 +122,15 @@ class ImplicitEulerSolver(NewtonSystem, LinearSolve, LineSearch, BodyContact):
             # where the last step left each vertex: a state that does not continue it (a
             # reset, a vertex moved by hand or by the untangling) gets no held λ
             self.x_end = vec(n)
+            # the planes found by the last query (_find_planes): how many, from which
+            # collider, where and how far it looked [m], and the bodies' generation then
+            self.c_count, self.c_col = ti.field(ti.i32, shape=n), ti.field(ti.i32, shape=n)
+            self.c_at = vec(n)
+            self.c_reach, self.c_creach = ti.field(REAL, shape=n), ti.field(REAL, shape=n)
+            self.c_gen = ti.field(ti.i32, shape=())
+            self.c_kscale = ti.field(REAL, shape=n)  # the penalty's stiffening (x1 at start)
+            self.c_kscale.fill(1.0)
+            self.c_gen[None] = -1  # no query yet
         self.self_collider = model.self_collider  # None switches the passes off (sewing)
         self.sc_x = self.sc_v = None  # state-precision copies for a self-collision pass
         self.pattern = self.factor = self.dx_np = None
@@ -168,7 +177,8 @@ class ImplicitEulerSolver(NewtonSystem, LinearSolve, LineSearch, BodyContact):
                 converged = True
                 break
             line_search_cuts += self._line_search(e0)
-        res = float(self._grad_hess()[1])  # residual at the accepted point, for the stats
+        # the residual at the accepted point, for the stats (one more gradient evaluation)
+        res = float(self._grad_hess()[1]) if self.config.step_residual else math.nan
         self._finish(state_out.x, state_out.v, index)
         self.last = {
             "newton_iterations": newton,
@@ -192,7 +202,8 @@ class ImplicitEulerSolver(NewtonSystem, LinearSolve, LineSearch, BodyContact):
         t["max_final_step_m_s"] = max(t["max_final_step_m_s"], step_norm / dt)
         t["max_error_estimate_m_s"] = max(t["max_error_estimate_m_s"], error / dt)
         t["max_error_over_tolerance"] = max(t["max_error_over_tolerance"], error / tol)
-        t["max_residual_force_over_weight"] = max(t["max_residual_force_over_weight"], res)
+        if self.config.step_residual:
+            t["max_residual_force_over_weight"] = max(t["max_residual_force_over_weight"], res)
 
     def advance(self, state: State, control: Control, dt: float, steps: int, first_index=0):
         """Advance ``state`` in place by ``steps`` steps of ``dt`` [s]."""

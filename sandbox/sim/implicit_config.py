@@ -43,6 +43,11 @@ class ImplicitConfig:
     """Newton iterations per step before the step is counted unconverged in ``stats()``."""
     max_cg: int = 2000
     """CG iterations per Newton iteration (a cap; the tolerance normally stops CG first)."""
+    step_residual: bool = True
+    """Evaluate the equilibrium residual at the end of every step for ``stats()`` (one more
+    gradient and Hessian evaluation a step: about 6 % of a three-iteration step of the
+    sheath dress at 1.5 cm). The live sandbox turns it off; a scene's metrics measure the
+    residual of the final state apart (:mod:`sandbox.sim.residual`)."""
     compression_stiffness: bool = False
     """Keep the (negative) geometric stiffness of compressed warp/weft columns in the Newton
     matrix and truncate CG at negative curvature. Off: measured slower on a falling stiff
@@ -70,9 +75,25 @@ class ImplicitConfig:
     Adding 10 or 100 times the stiffness of the seams and triangles pulling on the vertex
     made the line search halve its steps 20-150 times a step and the sewing of the A-line
     skirt diverge; deeper pulls are left to the contact response after the solve."""
+    contact_stiffening_max: float = 8.0
+    """A vertex that starts a step behind its body face (the penalty let it through) has its
+    own penalty stiffness doubled, up to this factor [1], until it has no body face within
+    reach: cloth pulled tight over a ridge (a shoulder under a dress too small for the
+    body) presses on it with hundreds of its weight, and a small vertex's m/h² penalty
+    let it sink 2-3 mm, be lifted out, sink again, every other step."""
     contact_reach_m: float = 2e-2
     """A vertex gets a contact plane for the step when a body face is within this distance
     [m] plus twice its predicted motion (|x̂ − x_n|) of its start."""
+    crease_reach_m: float = 5e-3
+    """A vertex's second contact plane (a concave crease: armpit, under the bust) comes from a
+    body face within this distance [m] plus twice its predicted motion of its start: the
+    faces it can reach this step. Looking as far as ``contact_reach_m`` for it made the
+    contact planes 1.5x slower on the sheath dress at 1.5 cm (every vertex on a flat part
+    of the body searched its whole reach for a crease that is not there)."""
+    plane_reuse_m: float = 1e-3
+    """A vertex keeps the contact planes found at an earlier step while it has moved less
+    than this [m] since and no body has changed; each query looks twice this farther than
+    the step needs, so a face it did not find stays out of reach."""
     plane_band_m: float = 1e-9
     """A vertex within this distance [m] of a contact plane, or behind it, has the plane's
     penalty in its Newton matrix; one farther in front does not, and a Newton step that

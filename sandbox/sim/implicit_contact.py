@@ -24,45 +24,88 @@ class BodyContact:
     @ti.kernel
     def _contact_planes(self):
         """Each free vertex's contact planes for the step (``BodyCollider.contact_planes``:
-        the nearest body face's and, in a crease, a second) within ``contact_reach_m`` +
-        2|x̂ − x_n| of x_n, from the collider whose nearest face is closest; or none."""
+        the nearest body face's within ``contact_reach_m`` + 2|x̂ − x_n| of x_n and, in a
+        crease, a second within ``crease_reach_m`` + 2|x̂ − x_n|), from the collider whose
+        nearest face is closest; or none.
+
+        A vertex keeps the planes it found at an earlier step while it has moved less than
+        ``plane_reuse_m`` since and the bodies have not changed (``BodyCollider.generation``):
+        the query looked twice ``plane_reuse_m`` farther than asked, so a face it did not
+        find is still out of reach. Cloth at rest on the body then queries nothing."""
         m = self.model
         h = self.h[None]
+        generation = 0
+        for c in ti.static(m.colliders):
+            generation += c.generation[None]
+        fresh = generation != self.c_gen[None]
+        margin = ti.cast(self.config.plane_reuse_m, REAL)
         for i in range(m.particle_count):
             self.c_k[i] = 0.0
             self.c_k2[i] = 0.0
             if m.particle_inv_mass[i] > 0.0:
-                xs = ti.cast(self.x0[i], float)
-                reach = ti.cast(
-                    self.config.contact_reach_m + 2.0 * (self.xh[i] - self.x0[i]).norm(), float
-                )
-                best = ti.cast(1e30, float)
-                for c in ti.static(m.colliders):
-                    count, n, o, n2, o2 = c.contact_planes(xs, reach)
-                    if count > 0 and n.dot(xs) - o < best:
-                        best = n.dot(xs) - o
-                        k = self.config.contact_stiffness * m.particle_mass[i] / (h * h)
-                        # a vertex that starts inside the thickness may not go deeper this
-                        # step, but is not pushed out by the penalty either (no shock from
-                        # a stiff penalty): the contact response after the solve does that,
-                        # and _lift_out for a vertex that starts inside the body
-                        self.c_n[i] = ti.cast(n, REAL)
-                        self.c_o[i] = ti.min(ti.cast(o, REAL), self.c_n[i].dot(self.x0[i]))
-                        self.c_n2[i] = ti.cast(n2, REAL)
-                        self.c_o2[i] = ti.min(ti.cast(o2, REAL), self.c_n2[i].dot(self.x0[i]))
-                        self.c_t[i] = ti.cast(o, REAL)
-                        self.c_t2[i] = ti.cast(o2, REAL)
-                        # behind the face itself (o includes the thickness)
-                        self.c_in[i] = 1 if best < -c.thickness[None] else 0
-                        self.c_mu[i] = ti.cast(c.mu_s[None], REAL)
-                        self.c_k[i] = k
-                        self.c_k2[i] = k if count == 2 else 0.0
+                motion = 2.0 * (self.xh[i] - self.x0[i]).norm()
+                reach = self.config.contact_reach_m + motion
+                crease = self.config.crease_reach_m + motion
+                moved = (self.x0[i] - self.c_at[i]).norm()
+                if (fresh or moved > margin or reach + moved > self.c_reach[i]
+                        or crease + moved > self.c_creach[i]):  # fmt: skip
+                    self._find_planes(i, reach + 2.0 * margin, crease + 2.0 * margin)
+                count = self.c_count[i]
+                if count == 0:
+                    self.c_kscale[i] = 1.0
+                if count > 0:
+                    # a vertex that starts inside the thickness may not go deeper this
+                    # step, but is not pushed out by the penalty either (no shock from a
+                    # stiff penalty): the contact response after the solve does that, and
+                    # _lift_out for a vertex that starts inside the body
+                    self.c_o[i] = ti.min(self.c_t[i], self.c_n[i].dot(self.x0[i]))
+                    self.c_o2[i] = ti.min(self.c_t2[i], self.c_n2[i].dot(self.x0[i]))
+                    thickness = ti.cast(0.0, REAL)
+                    for ci, c in ti.static(enumerate(m.colliders)):
+                        if self.c_col[i] == ci:
+                            thickness = ti.cast(c.thickness[None], REAL)
+                            self.c_mu[i] = ti.cast(c.mu_s[None], REAL)
+                    # behind the face itself (the offset includes the thickness)
+                    depth = self.c_t[i] - self.c_n[i].dot(self.x0[i])
+                    self.c_in[i] = 1 if depth > thickness else 0
+                    if self.c_in[i] == 1:  # the penalty let it through: stiffer from now on
+                        self.c_kscale[i] = ti.min(2.0 * self.c_kscale[i],
+                                                  self.config.contact_stiffening_max)  # fmt: skip
+                    k = (self.config.contact_stiffness * self.c_kscale[i] * m.particle_mass[i]
+                         / (h * h))  # fmt: skip
+                    self.c_k[i] = k
+                    self.c_k2[i] = k if count == 2 else 0.0
             if self.c_k[i] == 0.0:
                 self.c_lam[i] = 0.0
                 self.c_in[i] = 0
             if (self.x0[i] - self.x_end[i]).norm() > 0.0:  # not where the last step left it
                 self.c_lam[i] = 0.0
             self.c_new[i] = 1 if self.c_lam[i] == 0.0 else 0
+        self.c_gen[None] = generation
+
+    @ti.func
+    def _find_planes(self, i, reach, crease):
+        """Query the bodies for vertex i's planes from x_n (within ``reach`` and, for a
+        crease's second plane, ``crease`` [m]) and keep them with where and how far it
+        looked."""
+        m = self.model
+        xs = ti.cast(self.x0[i], float)
+        best = ti.cast(1e30, float)
+        self.c_count[i] = 0
+        for ci, c in ti.static(enumerate(m.colliders)):
+            count, n, o, n2, o2 = c.contact_planes(xs, ti.cast(reach, float),
+                                                   ti.cast(crease, float))  # fmt: skip
+            if count > 0 and n.dot(xs) - o < best:
+                best = n.dot(xs) - o
+                self.c_count[i] = count
+                self.c_col[i] = ci
+                self.c_n[i] = ti.cast(n, REAL)
+                self.c_n2[i] = ti.cast(n2, REAL)
+                self.c_t[i] = ti.cast(o, REAL)
+                self.c_t2[i] = ti.cast(o2, REAL)
+        self.c_at[i] = self.x0[i]
+        self.c_reach[i] = reach
+        self.c_creach[i] = crease
 
     @ti.func
     def _contact_terms(self, i, xi):

@@ -46,7 +46,7 @@ def _planes_kernel(body: ti.template(), x: ti.types.ndarray(), reach: float,
                    out: ti.types.ndarray()):  # fmt: skip
     for i in range(x.shape[0]):
         p = ti.Vector([x[i, 0], x[i, 1], x[i, 2]])
-        count, n1, _, n2, _ = body.contact_planes(p, reach)
+        count, n1, _, n2, _ = body.contact_planes(p, reach, reach)
         out[i, 0] = count
         for k in ti.static(range(3)):
             out[i, 1 + k] = n1[k]
