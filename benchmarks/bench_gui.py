@@ -38,7 +38,7 @@ def main() -> None:
         help="fixed simulation wall time per frame [s] (default: what 30 fps leaves)",
     )
     ap.add_argument(
-        "--integrator", default="implicit_euler", choices=("implicit_euler", "symplectic_euler")
+        "--integrator", default="symplectic_euler", choices=("implicit_euler", "symplectic_euler")
     )
     ap.add_argument("--newton", type=int, default=3, help="Newton iterations a step at most")
     ap.add_argument("--steps", type=int, default=2, help="implicit steps per 1/30 s frame")

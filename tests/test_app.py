@@ -101,14 +101,13 @@ def test_saved_pattern_holds_the_seams_sewn_here(session, tmp_path):
     session.clear_seams()
 
 
-def test_a_resize_refits_overdamped_with_scaled_inertia_then_restores_the_cloth():
-    """With gravity on and the paper's explicit step, a resize starts the refit mode:
-    damping 60 /s, inertia x 4, half the steps of twice the length per frame; when it ends
-    (the stop rule, or its frame limit) the cloth's own masses, damping and step are back."""
+def test_a_resize_refits_overdamped_with_scaled_inertia_then_restores_the_cloth(session):
+    """With gravity on and the paper's explicit step (the default), a resize starts the
+    refit mode: damping 60 /s, inertia x 4, half the steps of twice the length per frame;
+    when it ends (the stop rule, or its frame limit) the cloth's own masses, damping and
+    step are back."""
     from sandbox.app import session as app
 
-    session = app.Session("sheath-dress", edge_cm=4.0,
-                          solver=app.LiveSolver(integrator="symplectic_euler"))  # fmt: skip
     sc = session.scene
     dt, spf = sc.dt_s, sc.steps_per_frame
     gamma, mass = float(sc.control.damping_per_s[None]), sc.model.particle_mass.to_numpy()
@@ -130,13 +129,16 @@ def test_a_resize_refits_overdamped_with_scaled_inertia_then_restores_the_cloth(
     session.resize(hip_girth=before)
 
 
-def test_the_live_solver_is_backward_euler_with_a_fixed_newton_budget(session):
-    """The default live solver: two implicit steps per 1/30 s frame, at most three Newton
-    iterations each; a resize overdamps the cloth (60 /s) and keeps the step and masses, and
-    the cloth's own damping is back when the refit ends. Bad settings are refused."""
+def test_the_implicit_live_solver_has_a_fixed_newton_budget():
+    """``LiveSolver(integrator="implicit_euler")``: two implicit steps per 1/30 s frame, at
+    most three Newton iterations each; a resize overdamps the cloth (60 /s) and keeps the
+    step and masses, and the cloth's own damping is back when the refit ends. Bad settings
+    are refused."""
     from sandbox.app import session as app
     from sandbox.errors import SandboxError
 
+    session = app.Session("sheath-dress", edge_cm=4.0,
+                          solver=app.LiveSolver(integrator="implicit_euler"))  # fmt: skip
     sc = session.scene
     assert sc.spec.simulation.integrator == "implicit_euler"
     assert sc.steps_per_frame == 2 and sc.dt_s == pytest.approx(1 / 60)
