@@ -40,7 +40,7 @@ def main() -> None:
     ap.add_argument(
         "--integrator", default="symplectic_euler", choices=("implicit_euler", "symplectic_euler")
     )
-    ap.add_argument("--newton", type=int, default=3, help="Newton iterations a step at most")
+    ap.add_argument("--newton", type=int, default=5, help="Newton iterations a step at most")
     ap.add_argument("--steps", type=int, default=2, help="implicit steps per 1/30 s frame")
     add_precision_flags(ap)
     args = ap.parse_args()

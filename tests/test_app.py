@@ -131,7 +131,7 @@ def test_a_resize_refits_overdamped_with_scaled_inertia_then_restores_the_cloth(
 
 def test_the_implicit_live_solver_has_a_fixed_newton_budget():
     """``LiveSolver(integrator="implicit_euler")``: two implicit steps per 1/30 s frame, at
-    most three Newton iterations each; a resize overdamps the cloth (60 /s) and keeps the
+    most five Newton iterations each; a resize overdamps the cloth (60 /s) and keeps the
     step and masses, and the cloth's own damping is back when the refit ends. Bad settings
     are refused."""
     from sandbox.app import session as app
@@ -142,11 +142,11 @@ def test_the_implicit_live_solver_has_a_fixed_newton_budget():
     sc = session.scene
     assert sc.spec.simulation.integrator == "implicit_euler"
     assert sc.steps_per_frame == 2 and sc.dt_s == pytest.approx(1 / 60)
-    assert sc.solver.config.max_newton == 3 and sc.solver.config.linear_solver == "cg"
+    assert sc.solver.config.max_newton == 5 and sc.solver.config.linear_solver == "cg"
     gamma, mass = float(sc.control.damping_per_s[None]), sc.model.particle_mass.to_numpy()
     session.set_gravity(True)
     session.run_frames(2)
-    assert sc.solver.stats()["max_newton_iterations"] <= 3
+    assert sc.solver.stats()["max_newton_iterations"] <= 5
     before = session.mannequin.measure()["hip_girth"]
     session.resize(hip_girth=before + 4.0)
     assert session.stats.settling

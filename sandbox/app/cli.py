@@ -40,9 +40,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--newton",
         type=int,
-        default=3,
+        default=5,
         metavar="N",
-        help="implicit_euler: Newton iterations per step at most (default 3)",
+        help="implicit_euler: Newton iterations per step at most (default 5)",
     )
     p.add_argument(
         "--steps",
