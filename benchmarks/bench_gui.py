@@ -42,6 +42,12 @@ def main() -> None:
     )
     ap.add_argument("--newton", type=int, default=5, help="Newton iterations a step at most")
     ap.add_argument("--steps", type=int, default=2, help="implicit steps per 1/30 s frame")
+    ap.add_argument(
+        "--hold",
+        type=int,
+        default=60,
+        help="frames run after the refit to see whether the cloth stays at rest",
+    )
     add_precision_flags(ap)
     args = ap.parse_args()
     from sandbox import runtime
@@ -131,6 +137,11 @@ def main() -> None:
             break
     refit_s = time.perf_counter() - t0
     refit_draw_s = refit_frames * float(np.median(draw))
+    # does it stay at rest? the largest vertex move of each of the next --hold frames
+    held = []
+    for _ in range(args.hold):
+        s.run_frames(1)
+        held.append((s.stats.max_displacement_m, s.stats.converged))
     w, h = args.size
     where = f"a window on {os.environ['DISPLAY']}" if windowed else "off-screen GGUI"
     print(f"machine: {platform.machine()}, {os.cpu_count()} cores, Python "
@@ -157,6 +168,11 @@ def main() -> None:
     print(f"refit after a resize to size 20's girths: stop rule after {refit_frames} frames, "
           f"{refit_s:.1f} s of simulation (+ {refit_draw_s:.1f} s drawing them); "
           f"{s.last_refit}")  # fmt: skip
+    if held:
+        moves = np.array([m for m, _ in held]) * 1e3
+        print(f"after the refit, {len(held)} more frames: largest move {moves.max():.2f} mm, "
+              f"median {np.median(moves):.2f} mm, the stop rule held in "
+              f"{sum(c for _, c in held)} of them")  # fmt: skip
     print("slider changes [ms]:", " ".join(f"{1e3 * t:.0f}" for t in resize))
     print(f"slider change to a new frame: {1e3 * np.median(resize):.0f} ms median, "
           f"{1e3 * max(resize):.0f} ms max")  # fmt: skip

@@ -13,7 +13,8 @@ class LiveSolver:
     counts is simulated time per wall second and how soon the cloth is at rest again.
 
     ``symplectic_euler`` (default): the paper's Eq. 2 at its explicit step (hundreds of
-    steps a frame at 1.5 cm), as a drape runs it; the cloth comes to rest and stays still.
+    steps a frame at 1.5 cm), as a drape runs it; on the body it was dressed on, the cloth
+    comes to rest and stays still.
     ``implicit_euler``: backward Euler (:mod:`sandbox.sim.implicit`) with a fixed Newton
     budget, ``steps_per_frame`` steps of a 1/30 s frame and at most ``newton_iterations``
     Newton iterations a step, each solved by matrix-free conjugate gradients: several

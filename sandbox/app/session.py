@@ -404,8 +404,8 @@ class Session:
         (:meth:`_finish_frame`) or :data:`SETTLE_MAX_FRAMES` have run; a new resize while
         settling starts the count again. Meanwhile the cloth is overdamped (damping
         :data:`SETTLE_DAMPING_PER_S`); the explicit step also scales its inertia by
-        :data:`SETTLE_INERTIA` and its step by that's square root (the same frame), while
-        backward Euler keeps its step, stable at any damping."""
+        :data:`SETTLE_INERTIA` and lengthens its step by that factor's square root (the same
+        frame), while backward Euler keeps its step, stable at any damping."""
         from sandbox.sim.inertia import scale_inertia
 
         sc = self.scene
@@ -417,7 +417,7 @@ class Session:
             return  # the sewing table (no gravity) has no rest to refit
         saved = {"frames": 0, "dt_s": sc.dt_s, "steps_per_frame": sc.steps_per_frame,
                  "damping": float(sc.control.damping_per_s[None]),
-                 "t0": time.perf_counter(), "scaled": not self.solver.implicit}  # fmt: skip
+                 "t0": time.perf_counter()}  # fmt: skip
         self._settle = saved
         self.stats.settling = True
         sc.control.damping_per_s[None] = SETTLE_DAMPING_PER_S
@@ -434,7 +434,7 @@ class Session:
         from sandbox.sim.inertia import restore_inertia
 
         sc, saved = self.scene, self._settle
-        if saved["scaled"]:
+        if "inertia" in saved:  # the explicit step's scaling
             restore_inertia(sc, saved["inertia"])
             self._set_step(saved["dt_s"], saved["steps_per_frame"])
         sc.control.damping_per_s[None] = saved["damping"]
