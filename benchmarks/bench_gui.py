@@ -22,6 +22,7 @@ import time
 
 import numpy as np
 
+from sandbox.app.live_solver import DEFAULT_LIVE_SOLVER, INTEGRATORS
 from sandbox.precision import add_precision_flags
 
 
@@ -37,11 +38,11 @@ def main() -> None:
         default=None,
         help="fixed simulation wall time per frame [s] (default: what 30 fps leaves)",
     )
-    ap.add_argument(
-        "--integrator", default="symplectic_euler", choices=("implicit_euler", "symplectic_euler")
-    )
-    ap.add_argument("--newton", type=int, default=5, help="Newton iterations a step at most")
-    ap.add_argument("--steps", type=int, default=2, help="implicit steps per 1/30 s frame")
+    ap.add_argument("--integrator", default=DEFAULT_LIVE_SOLVER.integrator, choices=INTEGRATORS)
+    ap.add_argument("--newton", type=int, default=DEFAULT_LIVE_SOLVER.newton_iterations,
+                    help="Newton iterations a step at most")  # fmt: skip
+    ap.add_argument("--steps", type=int, default=DEFAULT_LIVE_SOLVER.steps_per_frame,
+                    help="implicit steps per 1/30 s frame")  # fmt: skip
     ap.add_argument(
         "--hold",
         type=int,

@@ -6,6 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from sandbox.app.live_solver import DEFAULT_LIVE_SOLVER, INTEGRATORS
 from sandbox.errors import SandboxError
 from sandbox.precision import add_precision_flags
 from sandbox.scene.budget import add_limit_flags, limits_from_args
@@ -32,24 +33,24 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--self-collision", action="store_true", help="cloth against itself")
     p.add_argument(
         "--integrator",
-        default="symplectic_euler",
-        choices=("implicit_euler", "symplectic_euler"),
-        help="symplectic_euler (default: the paper's Eq. 2) or implicit_euler (backward Euler "
-        "with a fixed Newton budget: faster, but it twitches where the cloth is tight)",
+        default=DEFAULT_LIVE_SOLVER.integrator,
+        choices=INTEGRATORS,
+        help="implicit_euler (default: backward Euler with a fixed Newton budget, several "
+        "times more simulated time per wall second) or symplectic_euler (the paper's Eq. 2)",
     )
     p.add_argument(
         "--newton",
         type=int,
-        default=5,
+        default=DEFAULT_LIVE_SOLVER.newton_iterations,
         metavar="N",
-        help="implicit_euler: Newton iterations per step at most (default 5)",
+        help="implicit_euler: Newton iterations per step at most (default %(default)s)",
     )
     p.add_argument(
         "--steps",
         type=int,
-        default=2,
+        default=DEFAULT_LIVE_SOLVER.steps_per_frame,
         metavar="N",
-        help="implicit_euler: steps per 1/30 s frame (default 2)",
+        help="implicit_euler: steps per 1/30 s frame (default %(default)s)",
     )
     p.add_argument("--offscreen", action="store_true", help="no window: play --script")
     p.add_argument("--script", type=Path, default=None, help="JSON list of actions")
