@@ -357,6 +357,8 @@ class ImplicitEulerSolver(NewtonSystem, LinearSolve, LineSearch, BodyContact):
                     for c in ti.static(m.colliders):
                         vs = c.respond(xs, vs, hs)
                     v = ti.cast(vs, REAL)
+                if ti.static(self.has_contact):
+                    v = self._out_of_crease(i, v)
             self.vel[i] = v
 
     @ti.kernel
