@@ -199,6 +199,24 @@ def test_the_gallery_reads_back_drapes_already_written_with_the_same_settings(tm
     (folder / "metrics.json").write_text(json.dumps({k: v for k, v in m.items()
                                                      if k != "edge_length_m"}))  # fmt: skip
     assert earlier_drape(folder, "tank-top", 12, 0.01) is None  # edge not recorded: draped again
+    # coarse to fine whose coarse level found no rest shape went direct: read back
+    fell = {**m, "method": "direct", "coarse_fallback": "coarse level: time limit"}
+    (folder / "metrics.json").write_text(json.dumps(fell))
+    assert earlier_drape(folder, "tank-top", 12, 0.01) is not None
+    (folder / "metrics.json").write_text(json.dumps({**m, "method": "direct"}))
+    assert earlier_drape(folder, "tank-top", 12, 0.01) is None
+
+
+def test_a_drape_no_finer_than_its_coarse_level_runs_direct():
+    """The gallery reads a 3 cm drape back as what it ran: direct, whatever the method."""
+    from sandbox.garment import DrapeConfig
+    from sandbox.garment.pipeline import method_run
+
+    config = DrapeConfig()
+    assert config.method == "coarse_to_fine" and config.coarse_edge_m == pytest.approx(0.03)
+    assert method_run(0.01, config) == "coarse_to_fine"
+    assert method_run(0.03, config) == "direct"
+    assert method_run(0.01, DrapeConfig(method="direct")) == "direct"
 
 
 @pytest.mark.slow

@@ -138,6 +138,16 @@ def _finer(edge_length_m: float | None, pattern, config: DrapeConfig) -> bool:
     return edge < 0.75 * config.coarse_edge_m
 
 
+def method_run(edge_length_m: float, config: DrapeConfig) -> str:
+    """The method a drape on an ``edge_length_m`` [m] mesh runs (metrics' ``method``):
+    ``config.method``, except that coarse to fine on a mesh no finer than its coarse level
+    is direct. A coarse level that finds no rest shape also ends in a direct drape; its
+    metrics say so (``coarse_fallback``)."""
+    if config.method == "coarse_to_fine" and not edge_length_m < 0.75 * config.coarse_edge_m:
+        return "direct"
+    return config.method
+
+
 def run_drape(scene, *, progress: bool | None = None, cover: bool = True):
     """Sew, untangle, then drape under gravity to the paper's stop rule (``run_scene``),
     repairing a drape that ends tangled and, with ``cover``, one the body shows through
