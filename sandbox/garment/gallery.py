@@ -187,13 +187,14 @@ def _header(*, out_dir, size, edge_m, quick, integrator, method, jobs, read_back
             total) -> str:  # fmt: skip
     """The table's first line: what was draped and the command that reproduces it."""
     from sandbox.garment import DrapeConfig
+    from sandbox.garment.pipeline import method_run
 
     implicit = integrator == "implicit_euler"
     fabrics = f", every garment in {QUICK_FABRIC}" if quick else ", each garment's fabric"
     header = f"Size {size} mannequin, {'quick: ' if quick else ''}{edge_m * 100:g} cm mesh edges"
     if implicit:
         header += ", implicit Euler (backward Euler at 1/60 s steps)"
-    if method == "coarse_to_fine" and edge_m < 0.75 * DrapeConfig().coarse_edge_m:
+    if method_run(edge_m, DrapeConfig(method=method)) == "coarse_to_fine":
         header += ", coarse to fine (docs/performance.md)"
     header += fabrics + ". Reproduce: `python -m sandbox gallery" + (" --quick" if quick else "")
     header += " --integrator implicit_euler" if implicit else ""

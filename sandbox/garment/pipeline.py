@@ -143,7 +143,7 @@ def method_run(edge_length_m: float, config: DrapeConfig) -> str:
     ``config.method``, except that coarse to fine on a mesh no finer than its coarse level
     is direct. A coarse level that finds no rest shape also ends in a direct drape; its
     metrics say so (``coarse_fallback``)."""
-    if config.method == "coarse_to_fine" and not edge_length_m < 0.75 * config.coarse_edge_m:
+    if config.method == "coarse_to_fine" and not _finer(edge_length_m, None, config):
         return "direct"
     return config.method
 
